@@ -1,0 +1,37 @@
+# flysfm_add_module(NAME SOURCES ... DEPS ...)
+# One static library per module folder, named flysfm_<NAME>. Headers are
+# included as "<module>/<file>.h" from the source root.
+function(flysfm_add_module name)
+  cmake_parse_arguments(ARG "" "" "SOURCES;DEPS" ${ARGN})
+  add_library(flysfm_${name} STATIC ${ARG_SOURCES})
+  target_include_directories(flysfm_${name} PUBLIC ${PROJECT_SOURCE_DIR})
+  target_link_libraries(flysfm_${name} PUBLIC ${ARG_DEPS})
+endfunction()
+
+# flysfm_add_module_tests(MODULE DEPS ...)
+# Every tests/<module>/<name>_test.cc becomes one executable
+# <module>_<name>_test, its Catch2 cases registered with CTest. Files named
+# *_regression_test.cc read the real data sets: label `regression`, and a
+# missing data folder makes them exit 77, which CTest reports as skipped.
+function(flysfm_add_module_tests module)
+  cmake_parse_arguments(ARG "" "" "DEPS" ${ARGN})
+  file(GLOB test_sources CONFIGURE_DEPENDS
+       "${CMAKE_CURRENT_SOURCE_DIR}/*_test.cc")
+  foreach(source ${test_sources})
+    get_filename_component(stem ${source} NAME_WE)
+    set(target ${module}_${stem})
+    add_executable(${target} ${source})
+    if(stem MATCHES "_regression_test$")
+      target_link_libraries(${target} PRIVATE flysfm_test_regression_main
+                            ${ARG_DEPS})
+      set(label regression)
+    else()
+      target_link_libraries(${target} PRIVATE flysfm_test_main ${ARG_DEPS})
+      set(label unit)
+    endif()
+    catch_discover_tests(${target}
+      TEST_PREFIX "${module}/${stem}: "
+      PROPERTIES LABELS ${label} SKIP_RETURN_CODE 77
+      DISCOVERY_TIMEOUT 30)
+  endforeach()
+endfunction()

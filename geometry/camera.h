@@ -1,0 +1,57 @@
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "geometry/camera_models.h"
+
+namespace flysfm {
+
+// Intrinsics of one physical camera: a model from camera_models.h, its
+// parameters in COLMAP's order, and the image size in pixels.
+struct Camera {
+  CameraModelId model_id = CameraModelId::kSimplePinhole;
+  int width = 0;
+  int height = 0;
+  std::vector<double> params;
+
+  // Parses "MODEL p1,p2,..." (commas and/or spaces between numbers), e.g.
+  // "FULL_OPENCV 517.3,516.5,318.6,255.3,0.2624,-0.9531,-0.0054,0.0026,
+  // 1.1633,0,0,0". Throws std::invalid_argument naming what is wrong: an
+  // unknown model (listing the known ones), a wrong parameter count (with the
+  // expected names), a malformed or non-finite number.
+  static Camera FromString(const std::string& text, int width, int height);
+  // A pinhole-style camera of the given model with focal length `focal`, the
+  // principal point at the image centre and zero distortion.
+  static Camera FromFocal(CameraModelId model_id, double focal, int width,
+                          int height);
+
+  // "MODEL p1,p2,..." with round-trip precision.
+  std::string ToString() const;
+  const char* ModelName() const;
+  const char* ParamsInfo() const;
+  int NumParams() const;
+  int NumFocalParams() const;
+  bool HasDistortion() const;
+
+  double MeanFocalLength() const;
+  // Converts a pixel threshold into the normalized image plane.
+  double CamFromImgThreshold(double pixels) const;
+
+  // Point in camera coordinates -> pixel.
+  Eigen::Vector2d ImgFromCam(const Eigen::Vector3d& point_in_cam) const;
+  // Pixel -> normalized image coordinates (x/z, y/z) of its viewing ray.
+  Eigen::Vector2d CamFromImg(const Eigen::Vector2d& pixel) const;
+
+  // True when the parameter count fits the model, every parameter is finite
+  // and the focal lengths are positive.
+  bool IsValid() const;
+};
+
+CameraModelId CameraModelIdFromName(const std::string& name);  // throws
+std::string CameraModelName(CameraModelId model_id);
+int CameraModelNumParams(CameraModelId model_id);
+
+}  // namespace flysfm

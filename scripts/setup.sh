@@ -1,0 +1,32 @@
+#!/usr/bin/env bash
+# Installs every dependency from Debian packages (idempotent, non-interactive),
+# then configures and builds flysfm in build/ (Release).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+packages=(
+  build-essential cmake pkg-config
+  libeigen3-dev
+  libceres-dev libsuitesparse-dev
+  libopencv-dev
+  nlohmann-json3-dev libspdlog-dev
+  catch2 libcli11-dev libcpp-httplib-dev libcurl4-openssl-dev
+  libbenchmark-dev
+)
+
+missing=()
+for package in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$package" 2>/dev/null | grep -q "install ok installed" \
+    || missing+=("$package")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "setup: installing ${missing[*]}"
+  sudo_cmd=()
+  [ "$(id -u)" -ne 0 ] && sudo_cmd=(sudo)
+  "${sudo_cmd[@]}" apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive "${sudo_cmd[@]}" apt-get install -y -qq \
+    --no-install-recommends "${missing[@]}"
+fi
+
+cmake -S . -B build -DCMAKE_BUILD_TYPE=Release
+cmake --build build -j"$(nproc)"

@@ -1,0 +1,19 @@
+// The flysfm command-line program. Sub-commands are registered by the modules'
+// issues as they land; each prints its options with their defaults on --help.
+
+#include <iostream>
+
+#include <CLI/CLI.hpp>
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "flysfm: on-the-fly Structure-from-Motion. Each image is registered "
+      "(pose, new 3D points) as it arrives."};
+  app.set_version_flag("--version", "flysfm 0.1.0");
+  app.require_subcommand(0, 1);
+  CLI11_PARSE(app, argc, argv);
+  if (app.get_subcommands().empty()) {
+    std::cout << app.help();
+  }
+  return 0;
+}
