@@ -1,0 +1,225 @@
+#include "core/reconstruction.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "geometry/check.h"
+
+namespace flysfm {
+
+camera_t Reconstruction::AddCamera(const Camera& camera, camera_t camera_id) {
+  FLYSFM_CHECK(camera.IsValid());
+  const camera_t id = camera_id != kInvalidCameraId ? camera_id
+                      : cameras_.empty()           ? 1
+                                                   : cameras_.rbegin()->first + 1;
+  FLYSFM_CHECK(cameras_.emplace(id, camera).second);
+  return id;
+}
+
+image_t Reconstruction::AddImage(const std::string& name, camera_t camera_id,
+                                 const std::vector<Eigen::Vector2d>& keypoints,
+                                 image_t image_id) {
+  FLYSFM_CHECK(ExistsCamera(camera_id));
+  const image_t id = image_id != kInvalidImageId ? image_id
+                     : images_.empty()          ? 1
+                                                : images_.rbegin()->first + 1;
+  FLYSFM_CHECK(!ExistsImage(id));
+  Image& image = images_[id];
+  image.image_id = id;
+  image.camera_id = camera_id;
+  image.name = name;
+  image.points2D.resize(keypoints.size());
+  for (std::size_t i = 0; i < keypoints.size(); ++i) {
+    image.points2D[i].xy = keypoints[i];
+  }
+  return id;
+}
+
+void Reconstruction::RegisterImage(image_t image_id, const Rigid3d& cam_from_world) {
+  Image& image = images_.at(image_id);
+  if (!image.IsRegistered()) registered_.push_back(image_id);
+  image.cam_from_world = cam_from_world;
+}
+
+void Reconstruction::DeRegisterImage(image_t image_id) {
+  Image& image = images_.at(image_id);
+  for (point2D_t idx = 0; idx < image.points2D.size(); ++idx) {
+    if (image.points2D[idx].HasPoint3D()) DeleteObservation(image_id, idx);
+  }
+  image.cam_from_world.reset();
+  registered_.erase(std::remove(registered_.begin(), registered_.end(), image_id),
+                    registered_.end());
+}
+
+point3D_t Reconstruction::AddPoint3D(const Eigen::Vector3d& xyz,
+                                     const std::vector<TrackElement>& track,
+                                     const std::array<std::uint8_t, 3>& color,
+                                     point3D_t point3D_id) {
+  const point3D_t id =
+      point3D_id != kInvalidPoint3DId ? point3D_id : next_point3D_id_;
+  FLYSFM_CHECK(!ExistsPoint3D(id));
+  next_point3D_id_ = std::max(next_point3D_id_, id + 1);
+  Point3D& point = points3D_[id];
+  point.xyz = xyz;
+  point.color = color;
+  for (const TrackElement& element : track) AddObservation(id, element);
+  return id;
+}
+
+void Reconstruction::AddObservation(point3D_t point3D_id,
+                                    const TrackElement& element) {
+  Image& image = images_.at(element.image_id);
+  FLYSFM_CHECK(image.IsRegistered());
+  Point2D& point2D = image.points2D.at(element.point2D_idx);
+  FLYSFM_CHECK(!point2D.HasPoint3D());
+  point2D.point3D_id = point3D_id;
+  ++image.num_points3D;
+  points3D_.at(point3D_id).track.push_back(element);
+}
+
+void Reconstruction::DeleteObservation(image_t image_id, point2D_t point2D_idx) {
+  Image& image = images_.at(image_id);
+  Point2D& point2D = image.points2D.at(point2D_idx);
+  FLYSFM_CHECK(point2D.HasPoint3D());
+  const point3D_t point3D_id = point2D.point3D_id;
+  point2D.point3D_id = kInvalidPoint3DId;
+  --image.num_points3D;
+  std::vector<TrackElement>& track = points3D_.at(point3D_id).track;
+  track.erase(std::remove(track.begin(), track.end(),
+                          TrackElement{image_id, point2D_idx}),
+              track.end());
+  if (track.size() < 2) DeletePoint3D(point3D_id);
+}
+
+void Reconstruction::DeletePoint3D(point3D_t point3D_id) {
+  for (const TrackElement& element : points3D_.at(point3D_id).track) {
+    Image& image = images_.at(element.image_id);
+    image.points2D.at(element.point2D_idx).point3D_id = kInvalidPoint3DId;
+    --image.num_points3D;
+  }
+  points3D_.erase(point3D_id);
+}
+
+point3D_t Reconstruction::MergePoints3D(point3D_t point3D_id1,
+                                        point3D_t point3D_id2) {
+  FLYSFM_CHECK(point3D_id1 != point3D_id2);
+  Point3D& keep = points3D_.at(point3D_id1);
+  const Point3D gone = points3D_.at(point3D_id2);
+  const double n1 = keep.track.size();
+  const double n2 = gone.track.size();
+  keep.xyz = (n1 * keep.xyz + n2 * gone.xyz) / (n1 + n2);
+  DeletePoint3D(point3D_id2);
+  for (const TrackElement& element : gone.track) {
+    const bool image_seen = std::any_of(
+        keep.track.begin(), keep.track.end(),
+        [&](const TrackElement& e) { return e.image_id == element.image_id; });
+    if (!image_seen) AddObservation(point3D_id1, element);
+  }
+  return point3D_id1;
+}
+
+std::size_t Reconstruction::NumObservations() const {
+  std::size_t count = 0;
+  for (const auto& [id, point] : points3D_) count += point.track.size();
+  return count;
+}
+
+double Reconstruction::ReprojectionError(image_t image_id, point2D_t point2D_idx,
+                                         const Eigen::Vector3d& xyz) const {
+  const Image& image = images_.at(image_id);
+  FLYSFM_CHECK(image.IsRegistered());
+  const Eigen::Vector3d in_cam = *image.cam_from_world * xyz;
+  if (in_cam.z() <= std::numeric_limits<double>::epsilon()) {
+    return std::numeric_limits<double>::infinity();
+  }
+  const Eigen::Vector2d projection = cameras_.at(image.camera_id).ImgFromCam(in_cam);
+  return (projection - image.points2D.at(point2D_idx).xy).norm();
+}
+
+double Reconstruction::TriangulationAngleDeg(point3D_t point3D_id) const {
+  const Point3D& point = points3D_.at(point3D_id);
+  std::vector<Eigen::Vector3d> rays;
+  rays.reserve(point.track.size());
+  for (const TrackElement& element : point.track) {
+    const Image& image = images_.at(element.image_id);
+    rays.push_back((point.xyz - ProjectionCenter(*image.cam_from_world)).normalized());
+  }
+  double min_cos = 1.0;
+  for (std::size_t i = 0; i < rays.size(); ++i) {
+    for (std::size_t j = i + 1; j < rays.size(); ++j) {
+      min_cos = std::min(min_cos, rays[i].dot(rays[j]));
+    }
+  }
+  return std::acos(std::clamp(min_cos, -1.0, 1.0)) * 180.0 / M_PI;
+}
+
+std::size_t Reconstruction::FilterPoints3D(const std::vector<point3D_t>& point3D_ids,
+                                           double max_error_px,
+                                           double min_angle_deg) {
+  std::size_t removed = 0;
+  for (const point3D_t id : point3D_ids) {
+    if (!ExistsPoint3D(id)) continue;
+    // A copy: deleting observations edits the track, and a track left with
+    // one element deletes the whole point.
+    const Point3D point = points3D_.at(id);
+    for (const TrackElement& element : point.track) {
+      if (!ExistsPoint3D(id)) break;
+      if (ReprojectionError(element.image_id, element.point2D_idx, point.xyz) >
+          max_error_px) {
+        DeleteObservation(element.image_id, element.point2D_idx);
+      }
+    }
+    if (ExistsPoint3D(id) && TriangulationAngleDeg(id) < min_angle_deg) {
+      DeletePoint3D(id);
+    }
+    removed += point.track.size() -
+               (ExistsPoint3D(id) ? points3D_.at(id).track.size() : 0);
+  }
+  return removed;
+}
+
+std::size_t Reconstruction::FilterAllPoints3D(double max_error_px,
+                                              double min_angle_deg) {
+  std::vector<point3D_t> ids;
+  ids.reserve(points3D_.size());
+  for (const auto& [id, point] : points3D_) ids.push_back(id);
+  return FilterPoints3D(ids, max_error_px, min_angle_deg);
+}
+
+void Reconstruction::UpdatePointErrors() {
+  for (auto& [id, point] : points3D_) {
+    double sum = 0;
+    for (const TrackElement& element : point.track) {
+      sum += ReprojectionError(element.image_id, element.point2D_idx, point.xyz);
+    }
+    point.error = point.track.empty() ? -1.0 : sum / point.track.size();
+  }
+}
+
+double Reconstruction::MeanReprojectionError() const {
+  double sum = 0;
+  std::size_t count = 0;
+  for (const auto& [id, point] : points3D_) {
+    for (const TrackElement& element : point.track) {
+      sum += ReprojectionError(element.image_id, element.point2D_idx, point.xyz);
+      ++count;
+    }
+  }
+  return count == 0 ? 0.0 : sum / count;
+}
+
+double Reconstruction::MeanTrackLength() const {
+  return points3D_.empty() ? 0.0 : double(NumObservations()) / points3D_.size();
+}
+
+void Reconstruction::Transform(const Sim3d& new_from_old) {
+  for (auto& [id, image] : images_) {
+    if (image.IsRegistered()) {
+      image.cam_from_world = TransformPose(new_from_old, *image.cam_from_world);
+    }
+  }
+  for (auto& [id, point] : points3D_) point.xyz = new_from_old * point.xyz;
+}
+
+}  // namespace flysfm

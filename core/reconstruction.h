@@ -1,0 +1,97 @@
+#pragma once
+
+#include <map>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "core/image.h"
+#include "core/point3d.h"
+#include "core/types.h"
+#include "geometry/camera.h"
+#include "geometry/sim3d.h"
+
+namespace flysfm {
+
+// The growing model: cameras, images (registered or waiting), 3D points and
+// their tracks. It keeps the two directions of every observation consistent:
+// a track element (image, point2D) <-> that Point2D's point3D_id.
+class Reconstruction {
+ public:
+  // The Add* functions take the id to give (a model read from disk keeps its
+  // ids) or, by default, the next free one. Ids start at 1, as in COLMAP.
+  camera_t AddCamera(const Camera& camera, camera_t camera_id = kInvalidCameraId);
+  // Adds an unregistered image with its keypoints (pixel coordinates).
+  image_t AddImage(const std::string& name, camera_t camera_id,
+                   const std::vector<Eigen::Vector2d>& keypoints,
+                   image_t image_id = kInvalidImageId);
+  void RegisterImage(image_t image_id, const Rigid3d& cam_from_world);
+  // Removes the pose and every observation the image has.
+  void DeRegisterImage(image_t image_id);
+
+  // The track's elements must be unobserved keypoints of distinct images.
+  point3D_t AddPoint3D(const Eigen::Vector3d& xyz,
+                       const std::vector<TrackElement>& track,
+                       const std::array<std::uint8_t, 3>& color = {0, 0, 0},
+                       point3D_t point3D_id = kInvalidPoint3DId);
+  void AddObservation(point3D_t point3D_id, const TrackElement& element);
+  // Removes one observation; a point left with fewer than two is deleted.
+  void DeleteObservation(image_t image_id, point2D_t point2D_idx);
+  void DeletePoint3D(point3D_t point3D_id);
+  // Joins two points seen as the same: the position is the track-length
+  // weighted mean; where both observe one image, the first's observation is
+  // kept. Returns the surviving id.
+  point3D_t MergePoints3D(point3D_t point3D_id1, point3D_t point3D_id2);
+
+  bool ExistsCamera(camera_t id) const { return cameras_.count(id) > 0; }
+  bool ExistsImage(image_t id) const { return images_.count(id) > 0; }
+  bool ExistsPoint3D(point3D_t id) const { return points3D_.count(id) > 0; }
+  const Camera& camera(camera_t id) const { return cameras_.at(id); }
+  Camera& camera(camera_t id) { return cameras_.at(id); }
+  const Image& image(image_t id) const { return images_.at(id); }
+  Image& image(image_t id) { return images_.at(id); }
+  const Point3D& point3D(point3D_t id) const { return points3D_.at(id); }
+  Point3D& point3D(point3D_t id) { return points3D_.at(id); }
+  const std::map<camera_t, Camera>& cameras() const { return cameras_; }
+  const std::map<image_t, Image>& images() const { return images_; }
+  const std::unordered_map<point3D_t, Point3D>& points3D() const { return points3D_; }
+  // In the order the images were registered.
+  const std::vector<image_t>& RegisteredImageIds() const { return registered_; }
+  std::size_t NumRegisteredImages() const { return registered_.size(); }
+  std::size_t NumPoints3D() const { return points3D_.size(); }
+  std::size_t NumObservations() const;
+
+  // Reprojection error in pixels of `xyz` against the keypoint; infinity when
+  // the point lies behind the camera. The image must be registered.
+  double ReprojectionError(image_t image_id, point2D_t point2D_idx,
+                           const Eigen::Vector3d& xyz) const;
+  // The largest angle, in degrees, between the rays from the track's camera
+  // centres to the point.
+  double TriangulationAngleDeg(point3D_t point3D_id) const;
+
+  // Drops observations whose reprojection error exceeds `max_error_px`, then
+  // points whose triangulation angle is below `min_angle_deg`. Only the given
+  // points are looked at. Returns the number of observations removed.
+  std::size_t FilterPoints3D(const std::vector<point3D_t>& point3D_ids,
+                             double max_error_px, double min_angle_deg);
+  std::size_t FilterAllPoints3D(double max_error_px, double min_angle_deg);
+  // Recomputes Point3D::error for every point.
+  void UpdatePointErrors();
+
+  double MeanReprojectionError() const;
+  double MeanTrackLength() const;
+
+  // Maps the whole model (poses and points) by a similarity.
+  void Transform(const Sim3d& new_from_old);
+
+ private:
+  std::map<camera_t, Camera> cameras_;
+  std::map<image_t, Image> images_;
+  std::unordered_map<point3D_t, Point3D> points3D_;
+  std::vector<image_t> registered_;
+  point3D_t next_point3D_id_ = 1;
+};
+
+}  // namespace flysfm

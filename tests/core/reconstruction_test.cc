@@ -1,0 +1,156 @@
+#include "core/reconstruction.h"
+
+#include <catch2/catch.hpp>
+
+#include "tests/testing/synthetic.h"
+
+namespace flysfm {
+namespace {
+
+// A reconstruction holding a synthetic scene exactly: every image registered
+// at its true pose, every point with its full track.
+struct Fixture {
+  testing::SyntheticScene scene;
+  Reconstruction reconstruction;
+  std::vector<image_t> image_ids;
+  std::vector<point3D_t> point_ids;
+
+  explicit Fixture(double noise_px = 0.0) {
+    testing::SyntheticSceneOptions options;
+    options.num_images = 6;
+    options.num_points = 200;
+    options.noise_px = noise_px;
+    scene = testing::MakeSyntheticScene(options);
+    const camera_t camera_id = reconstruction.AddCamera(scene.camera);
+    std::vector<std::vector<TrackElement>> tracks(scene.points.size());
+    for (int i = 0; i < options.num_images; ++i) {
+      std::vector<Eigen::Vector2d> keypoints;
+      for (const auto& obs : scene.ObservationsOf(i)) {
+        tracks[obs.point].push_back(
+            {image_t(i + 1), point2D_t(keypoints.size())});
+        keypoints.push_back(obs.pixel);
+      }
+      image_ids.push_back(
+          reconstruction.AddImage("img" + std::to_string(i), camera_id, keypoints));
+      reconstruction.RegisterImage(image_ids.back(), scene.cams_from_world[i]);
+    }
+    for (std::size_t p = 0; p < scene.points.size(); ++p) {
+      if (tracks[p].size() >= 2) {
+        point_ids.push_back(reconstruction.AddPoint3D(scene.points[p], tracks[p]));
+      }
+    }
+  }
+};
+
+TEST_CASE("A synthetic scene is held with consistent observations") {
+  Fixture f;
+  const Reconstruction& r = f.reconstruction;
+  CHECK(r.NumRegisteredImages() == 6);
+  CHECK(r.NumPoints3D() == f.point_ids.size());
+  CHECK(r.MeanReprojectionError() < 1e-9);
+  std::size_t observed = 0;
+  for (const auto& [id, image] : r.images()) {
+    int count = 0;
+    for (const Point2D& p : image.points2D) count += p.HasPoint3D();
+    CHECK(count == image.num_points3D);
+    observed += count;
+  }
+  CHECK(observed == r.NumObservations());
+  CHECK(r.MeanTrackLength() == Approx(double(observed) / r.NumPoints3D()));
+}
+
+TEST_CASE("Deleting observations keeps both directions consistent") {
+  Fixture f;
+  Reconstruction& r = f.reconstruction;
+  const point3D_t id = f.point_ids.front();
+  const std::vector<TrackElement> track = r.point3D(id).track;
+  REQUIRE(track.size() >= 3);
+  r.DeleteObservation(track[0].image_id, track[0].point2D_idx);
+  CHECK(r.point3D(id).track.size() == track.size() - 1);
+  CHECK_FALSE(r.image(track[0].image_id).points2D[track[0].point2D_idx].HasPoint3D());
+  // Down to one observation, the point goes and frees its last keypoint.
+  for (std::size_t i = 1; i + 1 < track.size(); ++i) {
+    r.DeleteObservation(track[i].image_id, track[i].point2D_idx);
+  }
+  CHECK_FALSE(r.ExistsPoint3D(id));
+  CHECK_FALSE(r.image(track.back().image_id).points2D[track.back().point2D_idx].HasPoint3D());
+}
+
+TEST_CASE("Filtering drops observations over the reprojection threshold") {
+  Fixture f;
+  Reconstruction& r = f.reconstruction;
+  const point3D_t id = f.point_ids[3];
+  const TrackElement moved = r.point3D(id).track[0];
+  r.image(moved.image_id).points2D[moved.point2D_idx].xy += Eigen::Vector2d(5, 0);
+  const std::size_t track_length = r.point3D(id).track.size();
+  CHECK(r.ReprojectionError(moved.image_id, moved.point2D_idx, r.point3D(id).xyz) ==
+        Approx(5.0));
+  CHECK(r.FilterAllPoints3D(/*max_error_px=*/4.0, /*min_angle_deg=*/0.0) == 1);
+  CHECK(r.point3D(id).track.size() == track_length - 1);
+  CHECK(r.FilterAllPoints3D(4.0, 0.0) == 0);
+}
+
+TEST_CASE("Filtering drops points with too small a triangulation angle") {
+  Fixture f;
+  Reconstruction& r = f.reconstruction;
+  // Cameras span 60 degrees around the scene at 5 units: angles are large.
+  const double angle = r.TriangulationAngleDeg(f.point_ids[0]);
+  CHECK(angle > 1.0);
+  CHECK(r.FilterAllPoints3D(1.0, 0.0) == 0);
+  const std::size_t before = r.NumObservations();
+  CHECK(r.FilterAllPoints3D(1.0, 180.0) == before);
+  CHECK(r.NumPoints3D() == 0);
+}
+
+TEST_CASE("Points behind a camera have an infinite error") {
+  Fixture f;
+  Reconstruction& r = f.reconstruction;
+  const TrackElement e = r.point3D(f.point_ids[0]).track[0];
+  const Eigen::Vector3d center = ProjectionCenter(*r.image(e.image_id).cam_from_world);
+  const Eigen::Vector3d behind = 2 * center - r.point3D(f.point_ids[0]).xyz;
+  CHECK(std::isinf(r.ReprojectionError(e.image_id, e.point2D_idx, behind)));
+}
+
+TEST_CASE("Merging two points unites their tracks") {
+  Fixture f;
+  Reconstruction& r = f.reconstruction;
+  const point3D_t id = f.point_ids[5];
+  const std::vector<TrackElement> track = r.point3D(id).track;
+  REQUIRE(track.size() >= 4);
+  // Split the track in two points, then merge them back.
+  for (std::size_t i = 2; i < track.size(); ++i) {
+    r.DeleteObservation(track[i].image_id, track[i].point2D_idx);
+  }
+  const point3D_t other = r.AddPoint3D(
+      r.point3D(id).xyz, std::vector<TrackElement>(track.begin() + 2, track.end()));
+  const point3D_t merged = r.MergePoints3D(id, other);
+  CHECK_FALSE(r.ExistsPoint3D(other));
+  CHECK(r.point3D(merged).track.size() == track.size());
+  CHECK(r.MeanReprojectionError() < 1e-9);
+}
+
+TEST_CASE("A similarity transform keeps reprojection errors") {
+  Fixture f(0.5);
+  Reconstruction& r = f.reconstruction;
+  const double before = r.MeanReprojectionError();
+  std::mt19937 rng(1);
+  r.Transform(Sim3d(3.0, testing::RandomRotation(rng), Eigen::Vector3d(1, -2, 5)));
+  CHECK(r.MeanReprojectionError() == Approx(before).epsilon(1e-9));
+  CHECK(before == Approx(0.5 * std::sqrt(M_PI / 2)).epsilon(0.15));
+}
+
+TEST_CASE("Deregistering an image removes its observations") {
+  Fixture f;
+  Reconstruction& r = f.reconstruction;
+  const image_t id = f.image_ids[2];
+  r.DeRegisterImage(id);
+  CHECK_FALSE(r.image(id).IsRegistered());
+  CHECK(r.image(id).num_points3D == 0);
+  CHECK(r.NumRegisteredImages() == 5);
+  for (const auto& [pid, point] : r.points3D()) {
+    for (const auto& e : point.track) CHECK(e.image_id != id);
+  }
+}
+
+}  // namespace
+}  // namespace flysfm
