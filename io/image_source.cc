@@ -1,0 +1,103 @@
+#include "io/image_source.h"
+
+#include <algorithm>
+#include <cctype>
+#include <fstream>
+#include <random>
+#include <sstream>
+#include <stdexcept>
+#include <thread>
+
+namespace flysfm {
+namespace {
+
+namespace fs = std::filesystem;
+
+bool HasImageExtension(const fs::path& path) {
+  std::string extension = path.extension().string();
+  std::transform(extension.begin(), extension.end(), extension.begin(),
+                 [](unsigned char c) { return std::tolower(c); });
+  return extension == ".jpg" || extension == ".jpeg" || extension == ".png" ||
+         extension == ".tif" || extension == ".tiff";
+}
+
+}  // namespace
+
+std::vector<Frame> ListImageFolder(const fs::path& dir) {
+  if (!fs::is_directory(dir)) {
+    throw std::invalid_argument("no such folder: " + dir.string());
+  }
+  std::vector<fs::path> paths;
+  for (const auto& entry : fs::directory_iterator(dir)) {
+    if (entry.is_regular_file() && HasImageExtension(entry.path())) {
+      paths.push_back(entry.path());
+    }
+  }
+  if (paths.empty()) {
+    throw std::invalid_argument("no images (jpg, jpeg, png, tif) in " + dir.string());
+  }
+  std::sort(paths.begin(), paths.end());
+  std::vector<Frame> frames;
+  for (const fs::path& path : paths) {
+    Frame frame;
+    frame.name = path.filename().string();
+    frame.path = path;
+    frame.timestamp = double(frames.size());
+    frames.push_back(std::move(frame));
+  }
+  return frames;
+}
+
+std::vector<Frame> ListTumSequence(const fs::path& dir) {
+  const fs::path list = dir / "rgb.txt";
+  std::ifstream in(list);
+  if (!in) throw std::invalid_argument("cannot read " + list.string());
+  std::vector<Frame> frames;
+  std::string line;
+  for (int number = 1; std::getline(in, line); ++number) {
+    const auto first = line.find_first_not_of(" \t\r");
+    if (first == std::string::npos || line[first] == '#') continue;
+    std::istringstream fields(line);
+    Frame frame;
+    if (!(fields >> frame.timestamp >> frame.name)) {
+      throw std::invalid_argument(list.string() + ":" + std::to_string(number) +
+                                  ": expected 'timestamp filename'");
+    }
+    frame.path = dir / frame.name;
+    frames.push_back(std::move(frame));
+  }
+  if (frames.empty()) throw std::invalid_argument(list.string() + " lists no frames");
+  return frames;
+}
+
+std::vector<Frame> ListBatchInput(const fs::path& path) {
+  return fs::exists(path / "rgb.txt") ? ListTumSequence(path) : ListImageFolder(path);
+}
+
+void ShuffleFrames(std::vector<Frame>* frames, std::uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::shuffle(frames->begin(), frames->end(), rng);
+}
+
+FrameListSource::FrameListSource(std::vector<Frame> frames,
+                                 double interval_seconds)
+    : frames_(std::move(frames)),
+      interval_seconds_(interval_seconds),
+      start_(std::chrono::steady_clock::now()) {
+  if (!(interval_seconds >= 0)) {
+    throw std::invalid_argument("the interval must be >= 0 seconds");
+  }
+}
+
+std::optional<Frame> FrameListSource::Next() {
+  if (next_ >= frames_.size()) return std::nullopt;
+  // Frame i arrives i intervals after the first, whatever the engine's pace.
+  std::this_thread::sleep_until(
+      start_ + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                   std::chrono::duration<double>(interval_seconds_ * next_)));
+  Frame frame = std::move(frames_[next_++]);
+  frame.arrival = std::chrono::steady_clock::now();
+  return frame;
+}
+
+}  // namespace flysfm
