@@ -1,0 +1,94 @@
+#include "matching/features.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include <opencv2/features2d.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "geometry/check.h"
+
+namespace flysfm {
+
+bool SiftOptions::Check() const {
+  return max_num_features > 0 && max_image_size >= 16 && peak_threshold >= 0 &&
+         edge_threshold > 0 && num_octave_layers >= 1;
+}
+
+void RootSiftInPlace(FeatureDescriptors* descriptors) {
+  for (Eigen::Index i = 0; i < descriptors->rows(); ++i) {
+    auto row = descriptors->row(i);
+    const float l1 = row.cwiseAbs().sum();
+    if (l1 > 0.f) row = (row.cwiseAbs() / l1).cwiseSqrt();
+  }
+}
+
+FeatureSet ExtractFeatures(const cv::Mat& image, const SiftOptions& options) {
+  if (!options.Check()) throw std::invalid_argument("invalid SiftOptions");
+  if (image.empty()) throw std::invalid_argument("ExtractFeatures: empty image");
+  if (image.depth() != CV_8U || (image.channels() != 1 && image.channels() != 3)) {
+    throw std::invalid_argument("ExtractFeatures: need an 8-bit grey or BGR image");
+  }
+
+  cv::Mat grey;
+  if (image.channels() == 3) {
+    cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
+  } else {
+    grey = image;
+  }
+  const int long_side = std::max(image.cols, image.rows);
+  double scale = 1.0;  // full resolution / extraction resolution
+  if (long_side > options.max_image_size) {
+    scale = double(long_side) / options.max_image_size;
+    cv::Mat small;
+    cv::resize(grey, small,
+               cv::Size(std::max(1, int(std::lround(image.cols / scale))),
+                        std::max(1, int(std::lround(image.rows / scale)))),
+               0, 0, cv::INTER_AREA);
+    grey = small;
+  }
+  const double scale_x = double(image.cols) / grey.cols;
+  const double scale_y = double(image.rows) / grey.rows;
+
+  cv::Ptr<cv::SIFT> sift =
+      cv::SIFT::create(options.max_num_features, options.num_octave_layers,
+                       options.peak_threshold, options.edge_threshold);
+  std::vector<cv::KeyPoint> cv_keypoints;
+  cv::Mat cv_descriptors;
+  sift->detectAndCompute(grey, cv::noArray(), cv_keypoints, cv_descriptors);
+  FLYSFM_CHECK(cv_descriptors.empty() ||
+               (cv_descriptors.rows == int(cv_keypoints.size()) &&
+                cv_descriptors.cols == 128 && cv_descriptors.type() == CV_32F));
+
+  FeatureSet features;
+  features.width = image.cols;
+  features.height = image.rows;
+  const int n = static_cast<int>(cv_keypoints.size());
+  features.keypoints.resize(n);
+  features.descriptors.resize(n, 128);
+  for (int i = 0; i < n; ++i) {
+    const cv::KeyPoint& kp = cv_keypoints[i];
+    Keypoint& out = features.keypoints[i];
+    // Pixel centres map as (x + 0.5) * s - 0.5 between resolutions.
+    out.x = float((kp.pt.x + 0.5) * scale_x - 0.5);
+    out.y = float((kp.pt.y + 0.5) * scale_y - 0.5);
+    out.scale = float(kp.size * scale);
+    out.orientation = float(kp.angle * M_PI / 180.0);
+    const int px = std::clamp(int(std::lround(out.x)), 0, image.cols - 1);
+    const int py = std::clamp(int(std::lround(out.y)), 0, image.rows - 1);
+    if (image.channels() == 3) {
+      const cv::Vec3b bgr = image.at<cv::Vec3b>(py, px);
+      out.b = bgr[0];
+      out.g = bgr[1];
+      out.r = bgr[2];
+    } else {
+      out.r = out.g = out.b = image.at<std::uint8_t>(py, px);
+    }
+    std::copy_n(cv_descriptors.ptr<float>(i), 128, features.descriptors.row(i).data());
+  }
+  RootSiftInPlace(&features.descriptors);
+  return features;
+}
+
+}  // namespace flysfm

@@ -1,0 +1,80 @@
+#pragma once
+
+// Local features: SIFT keypoints (OpenCV) with their pixel colour and
+// RootSIFT descriptors.
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+namespace flysfm {
+
+struct Keypoint {
+  // Full-resolution pixel coordinates, OpenCV convention (the centre of the
+  // top-left pixel is (0, 0)).
+  float x = 0.f;
+  float y = 0.f;
+  // SIFT scale as OpenCV reports it (keypoint diameter), in full-resolution
+  // pixels.
+  float scale = 0.f;
+  // Radians: OpenCV's KeyPoint::angle (degrees, in the image coordinate
+  // system) converted, same sense.
+  float orientation = 0.f;
+  // Colour of the pixel under the keypoint, for coloured point clouds.
+  std::uint8_t r = 0;
+  std::uint8_t g = 0;
+  std::uint8_t b = 0;
+};
+
+// One RootSIFT descriptor per row (unit L2 norm). Row-major, so that a row is
+// contiguous and the block can be handed to OpenCV without a copy. 2 000
+// features take 1 MB.
+using FeatureDescriptors = Eigen::Matrix<float, Eigen::Dynamic, 128, Eigen::RowMajor>;
+
+struct FeatureSet {
+  // Size of the full-resolution image the keypoints refer to.
+  int width = 0;
+  int height = 0;
+  std::vector<Keypoint> keypoints;
+  // Row i describes keypoints[i].
+  FeatureDescriptors descriptors;
+
+  int size() const { return static_cast<int>(keypoints.size()); }
+};
+
+struct SiftOptions {
+  // Strongest features kept (by DoG response). 2 000 fills a 640x480 frame
+  // (OpenCV finds ~1 900 there) and keeps matching and memory bounded on
+  // 6 MP photos.
+  int max_num_features = 2000;
+  // Longest image side used for extraction; larger images are downscaled
+  // (area interpolation) and keypoints mapped back to full resolution. 1 600
+  // px keeps a 6 MP photo near 0.3 s instead of over 1 s, with enough
+  // features for pose estimation.
+  int max_image_size = 1600;
+  // OpenCV SIFT's contrast threshold on the DoG peaks (its default; Lowe's
+  // 0.03 in OpenCV's scaling).
+  double peak_threshold = 0.04;
+  // Ratio of principal curvatures above which edge responses are rejected
+  // (Lowe's 10).
+  double edge_threshold = 10.0;
+  // Scale levels per octave (Lowe's 3).
+  int num_octave_layers = 3;
+
+  bool Check() const;
+};
+
+// Extracts SIFT features from an 8-bit grey or BGR image. An empty or
+// non-8-bit image is bad input: std::invalid_argument. An image without
+// texture gives an empty set.
+FeatureSet ExtractFeatures(const cv::Mat& image, const SiftOptions& options);
+
+// In place: L1-normalise each row, then take the element-wise square root
+// (Arandjelovic & Zisserman 2012), so the Euclidean distance of RootSIFT
+// descriptors is the Hellinger distance of the SIFT histograms.
+void RootSiftInPlace(FeatureDescriptors* descriptors);
+
+}  // namespace flysfm

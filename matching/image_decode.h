@@ -1,0 +1,41 @@
+#pragma once
+
+// Decoding of image files and in-memory byte buffers (live capture delivers
+// bytes). Bad bytes are a reported failure, never an exception or a crash:
+// the engine counts them as rejections and carries on.
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+namespace flysfm {
+
+struct DecodedImage {
+  // 8-bit BGR, in the file's stored pixel grid (EXIF orientation is ignored so
+  // that pixel coordinates agree with calibrations made on the raw frames).
+  // Empty on failure.
+  cv::Mat image;
+  // Why decoding failed; empty on success.
+  std::string error;
+
+  bool ok() const { return error.empty(); }
+};
+
+// Decodes JPEG, PNG and the other formats OpenCV reads. A JPEG must end with
+// its EOI marker and a PNG with its IEND chunk: a truncated file is a failure
+// even where the codec would return a partly grey image.
+DecodedImage DecodeImageBytes(const std::uint8_t* data, std::size_t size);
+DecodedImage DecodeImageBytes(const std::vector<std::uint8_t>& bytes);
+
+// Reads the whole file, then as DecodeImageBytes.
+DecodedImage DecodeImageFile(const std::string& path);
+
+// The image files (by extension: jpg, jpeg, png, tif, tiff, bmp, pgm, ppm; any
+// case) directly inside `dir`, sorted by name. A missing folder is bad input:
+// std::invalid_argument.
+std::vector<std::string> ListImageFiles(const std::string& dir);
+
+}  // namespace flysfm

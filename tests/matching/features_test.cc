@@ -1,0 +1,103 @@
+#include "matching/features.h"
+
+#include <algorithm>
+#include <stdexcept>
+#include <vector>
+
+#include <catch2/catch.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "matching/matcher.h"
+#include "tests/testing/texture.h"
+#include "tests/testing/warped_pair.h"
+
+namespace flysfm {
+namespace {
+
+// Median distance between the position of each match in image 2 and the
+// homography's image of its position in image 1.
+double MedianWarpError(const FeatureSet& f1, const FeatureSet& f2,
+                       const std::vector<FeatureMatch>& matches, const Eigen::Matrix3d& h) {
+  std::vector<double> errors;
+  for (const FeatureMatch& m : matches) {
+    const Keypoint &a = f1.keypoints[m.idx1], &b = f2.keypoints[m.idx2];
+    const Eigen::Vector2d predicted = testing::ApplyHomography(h, Eigen::Vector2d(a.x, a.y));
+    errors.push_back((predicted - Eigen::Vector2d(b.x, b.y)).norm());
+  }
+  std::nth_element(errors.begin(), errors.begin() + errors.size() / 2, errors.end());
+  return errors[errors.size() / 2];
+}
+
+TEST_CASE("SIFT matches on a warped texture agree with the warp") {
+  const testing::WarpedPair pair = testing::MakeWarpedPair(640, 480, 12.0, 0.9, 640, 480, 7);
+  const FeatureSet f1 = ExtractFeatures(pair.image1, SiftOptions());
+  const FeatureSet f2 = ExtractFeatures(pair.image2, SiftOptions());
+  const std::vector<FeatureMatch> matches = MatchDescriptors(f1.descriptors, f2.descriptors, {});
+  REQUIRE(matches.size() >= 200);
+  CHECK(MedianWarpError(f1, f2, matches, pair.homography) < 0.5);
+}
+
+TEST_CASE("keypoints of a downscaled extraction are in full-resolution pixels") {
+  // Image 2 is twice as large as image 1 and extracted at half size: its
+  // keypoints must still land where the warp puts them, in full resolution
+  // (within 0.5 px at extraction scale, i.e. 1 px at full scale).
+  const testing::WarpedPair pair = testing::MakeWarpedPair(640, 480, 5.0, 2.0, 1400, 1000, 3);
+  SiftOptions small;
+  small.max_image_size = 700;
+  const FeatureSet f1 = ExtractFeatures(pair.image1, SiftOptions());
+  const FeatureSet f2 = ExtractFeatures(pair.image2, small);
+  CHECK(f2.width == 1400);
+  CHECK(f2.height == 1000);
+  const std::vector<FeatureMatch> matches = MatchDescriptors(f1.descriptors, f2.descriptors, {});
+  REQUIRE(matches.size() >= 200);
+  CHECK(MedianWarpError(f1, f2, matches, pair.homography) < 1.0);
+  for (const Keypoint& kp : f2.keypoints) {
+    REQUIRE(kp.x >= -0.5f);
+    REQUIRE(kp.x <= 1399.5f);
+  }
+}
+
+TEST_CASE("descriptors are RootSIFT and the feature count is capped") {
+  SiftOptions options;
+  options.max_num_features = 500;
+  const FeatureSet f = ExtractFeatures(testing::MakeTexture(640, 480, 1), options);
+  REQUIRE(f.size() > 0);
+  // OpenCV keeps keypoints tied in response with the 500th, so a few more.
+  CHECK(f.size() <= 510);
+  CHECK(f.descriptors.rows() == f.size());
+  for (int i = 0; i < f.size(); ++i) {
+    REQUIRE(f.descriptors.row(i).norm() == Approx(1.0).margin(1e-4));
+    REQUIRE(f.descriptors.row(i).minCoeff() >= 0.f);
+  }
+}
+
+TEST_CASE("keypoints carry the colour of their pixel in RGB order") {
+  // Texture in green only, red saturated, blue zero: whatever the keypoint,
+  // r = 255 and b = 0, and g is the pixel's green value.
+  const cv::Mat texture = testing::MakeTexture(320, 240, 5);
+  cv::Mat bgr;
+  cv::merge(std::vector<cv::Mat>{cv::Mat::zeros(240, 320, CV_8U), texture,
+                                 cv::Mat(240, 320, CV_8U, cv::Scalar(255))},
+            bgr);
+  const FeatureSet f = ExtractFeatures(bgr, SiftOptions());
+  REQUIRE(f.size() > 50);
+  for (const Keypoint& kp : f.keypoints) {
+    REQUIRE(kp.r == 255);
+    REQUIRE(kp.b == 0);
+    REQUIRE(kp.g == texture.at<std::uint8_t>(int(std::lround(kp.y)), int(std::lround(kp.x))));
+  }
+}
+
+TEST_CASE("a blank image has no features and bad images or options are rejected") {
+  CHECK(ExtractFeatures(cv::Mat(240, 320, CV_8U, cv::Scalar(90)), SiftOptions()).size() == 0);
+  CHECK_THROWS_AS(ExtractFeatures(cv::Mat(), SiftOptions()), std::invalid_argument);
+  CHECK_THROWS_AS(ExtractFeatures(cv::Mat(10, 10, CV_32F, cv::Scalar(0)), SiftOptions()),
+                  std::invalid_argument);
+  SiftOptions bad;
+  bad.max_num_features = 0;
+  CHECK_FALSE(bad.Check());
+  CHECK_THROWS_AS(ExtractFeatures(testing::MakeTexture(64, 64, 1), bad), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace flysfm

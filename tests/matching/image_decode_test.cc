@@ -1,0 +1,97 @@
+#include "matching/image_decode.h"
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <random>
+
+#include <catch2/catch.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "tests/testing/texture.h"
+
+namespace flysfm {
+namespace {
+
+std::vector<std::uint8_t> Encode(const cv::Mat& image, const std::string& extension) {
+  std::vector<std::uint8_t> bytes;
+  REQUIRE(cv::imencode(extension, image, bytes));
+  return bytes;
+}
+
+TEST_CASE("PNG and JPEG bytes decode to the encoded image") {
+  const cv::Mat image = testing::MakeTexture(160, 120, 2, true);
+  const DecodedImage png = DecodeImageBytes(Encode(image, ".png"));
+  REQUIRE(png.ok());
+  CHECK(cv::norm(png.image, image, cv::NORM_INF) == 0);  // lossless
+  const DecodedImage jpeg = DecodeImageBytes(Encode(image, ".jpg"));
+  REQUIRE(jpeg.ok());
+  CHECK(jpeg.image.size() == image.size());
+  CHECK(jpeg.image.type() == CV_8UC3);
+  // A grey PNG comes back as BGR.
+  cv::Mat grey;
+  cv::extractChannel(image, grey, 0);
+  const DecodedImage grey_png = DecodeImageBytes(Encode(grey, ".png"));
+  REQUIRE(grey_png.ok());
+  CHECK(grey_png.image.channels() == 3);
+}
+
+TEST_CASE("bad bytes give an error and never a crash") {
+  const cv::Mat image = testing::MakeTexture(160, 120, 3, true);
+  const std::vector<std::uint8_t> png = Encode(image, ".png");
+  const std::vector<std::uint8_t> jpeg = Encode(image, ".jpg");
+
+  CHECK_FALSE(DecodeImageBytes(nullptr, 0).ok());
+  CHECK_FALSE(DecodeImageBytes(std::vector<std::uint8_t>{}).ok());
+  const DecodedImage truncated_png = DecodeImageBytes(png.data(), png.size() / 2);
+  CHECK_FALSE(truncated_png.ok());
+  CHECK_THAT(truncated_png.error, Catch::Contains("truncated"));
+  CHECK_FALSE(DecodeImageBytes(jpeg.data(), jpeg.size() * 2 / 3).ok());
+  // Headers only.
+  CHECK_FALSE(DecodeImageBytes(png.data(), 8).ok());
+  CHECK_FALSE(DecodeImageBytes(jpeg.data(), 3).ok());
+
+  std::mt19937 rng(1);
+  std::vector<std::uint8_t> noise(5000);
+  for (auto& b : noise) b = std::uint8_t(rng());
+  CHECK_FALSE(DecodeImageBytes(noise).ok());
+  const std::string text = "definitely not an image";
+  const DecodedImage from_text =
+      DecodeImageBytes(reinterpret_cast<const std::uint8_t*>(text.data()), text.size());
+  CHECK_FALSE(from_text.ok());
+  CHECK(from_text.image.empty());
+  CHECK_FALSE(from_text.error.empty());
+
+  // A JPEG whose body is corrupted but whose markers are intact.
+  std::vector<std::uint8_t> corrupt = jpeg;
+  for (std::size_t i = 20; i < corrupt.size() - 2; i += 7) corrupt[i] = 0xFF;
+  CHECK_NOTHROW(DecodeImageBytes(corrupt));
+}
+
+TEST_CASE("image files are decoded and listed and missing ones give errors") {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / "flysfm_image_decode_test";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const cv::Mat image = testing::MakeTexture(64, 48, 4, true);
+  REQUIRE(cv::imwrite((dir / "b.png").string(), image));
+  REQUIRE(cv::imwrite((dir / "a.JPG").string(), image));
+  std::ofstream((dir / "notes.txt").string()) << "x";
+  std::ofstream((dir / "empty.png").string());
+
+  CHECK(DecodeImageFile((dir / "b.png").string()).ok());
+  const DecodedImage empty = DecodeImageFile((dir / "empty.png").string());
+  CHECK_FALSE(empty.ok());
+  CHECK_THAT(empty.error, Catch::Contains("empty.png"));
+  CHECK_FALSE(DecodeImageFile((dir / "missing.png").string()).ok());
+
+  const std::vector<std::string> files = ListImageFiles(dir.string());
+  REQUIRE(files.size() == 3);
+  CHECK(fs::path(files[0]).filename() == "a.JPG");
+  CHECK(fs::path(files[1]).filename() == "b.png");
+  CHECK_THROWS_AS(ListImageFiles((dir / "nope").string()), std::invalid_argument);
+  fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace flysfm
