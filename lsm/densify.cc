@@ -1,0 +1,273 @@
+#include "lsm/densify.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+namespace flysfm {
+namespace {
+
+// Among the reference observations whose window fits in their image (with
+// `margin` pixels around the point), the one whose viewing ray to the point
+// is closest in direction to the new image's; -1 when none fits.
+int ClosestObservation(const DensifyCandidate& candidate,
+                       const std::vector<LsmView>& references,
+                       const Eigen::Vector3d& new_center, double margin) {
+  const Eigen::Vector3d new_ray = (candidate.xyz - new_center).normalized();
+  int best = -1;
+  double best_cosine = -std::numeric_limits<double>::infinity();
+  for (size_t i = 0; i < candidate.observations.size(); ++i) {
+    const LsmView& reference = references[candidate.observations[i].view];
+    const Eigen::Vector2d& point = candidate.observations[i].point2D;
+    if (!(point.x() >= margin && point.y() >= margin &&
+          point.x() <= reference.pyramid[0].width() - 1 - margin &&
+          point.y() <= reference.pyramid[0].height() - 1 - margin)) {
+      continue;
+    }
+    const Eigen::Vector3d ray =
+        (candidate.xyz - ProjectionCenter(reference.cam_from_world))
+            .normalized();
+    const double cosine = ray.dot(new_ray);
+    if (cosine > best_cosine) {
+      best_cosine = cosine;
+      best = static_cast<int>(i);
+    }
+  }
+  return best;
+}
+
+// d pixel / d point_in_cam, by central differences so that lens distortion
+// is included.
+Eigen::Matrix<double, 2, 3> ProjectionJacobian(const Camera& camera,
+                                               const Eigen::Vector3d& in_cam) {
+  Eigen::Matrix<double, 2, 3> jacobian;
+  const double step = 1e-6 * in_cam.norm();
+  for (int axis = 0; axis < 3; ++axis) {
+    const Eigen::Vector3d delta = step * Eigen::Vector3d::Unit(axis);
+    jacobian.col(axis) = (camera.ImgFromCam(in_cam + delta) -
+                          camera.ImgFromCam(in_cam - delta)) /
+                         (2.0 * step);
+  }
+  return jacobian;
+}
+
+// The initial pose corrected to the coarse matches: Gauss-Newton on the
+// reprojection error over a small rotation and translation in the camera
+// frame (x -> x + w x x + t), the matches beyond `inlier_px` left out. The
+// first round gates by distance to the median shift, since a small pose
+// error moves all projections nearly alike; coarse windows straddling depth
+// edges land wrong and fall out there.
+Rigid3d CorrectPose(const Camera& camera, const Rigid3d& cam_from_world,
+                    const std::vector<Eigen::Vector3d>& points,
+                    const std::vector<Eigen::Vector2d>& measured,
+                    double inlier_px) {
+  constexpr int kMinMatches = 12;
+  const int n = static_cast<int>(points.size());
+  if (n < kMinMatches) return cam_from_world;
+  Eigen::Vector2d median_shift;
+  for (int axis = 0; axis < 2; ++axis) {
+    std::vector<double> values;
+    for (int i = 0; i < n; ++i) {
+      values.push_back(measured[i][axis] -
+                       camera.ImgFromCam(cam_from_world * points[i])[axis]);
+    }
+    std::nth_element(values.begin(), values.begin() + n / 2, values.end());
+    median_shift[axis] = values[n / 2];
+  }
+  Rigid3d pose = cam_from_world;
+  for (int round = 0; round < 4; ++round) {
+    Eigen::Matrix<double, 6, 6> normal = Eigen::Matrix<double, 6, 6>::Zero();
+    Eigen::Matrix<double, 6, 1> gradient = Eigen::Matrix<double, 6, 1>::Zero();
+    int used = 0;
+    for (int i = 0; i < n; ++i) {
+      const Eigen::Vector3d in_cam = pose * points[i];
+      if (!(in_cam.z() > 0.0)) continue;
+      const Eigen::Vector2d residual = measured[i] - camera.ImgFromCam(in_cam);
+      const Eigen::Vector2d expected =
+          round == 0 ? median_shift : Eigen::Vector2d::Zero();
+      if ((residual - expected).norm() > inlier_px) continue;
+      // d(x + w x x + t) / d(w, t) = [-[x]_x | I].
+      Eigen::Matrix<double, 3, 6> motion;
+      motion << 0.0, in_cam.z(), -in_cam.y(), 1.0, 0.0, 0.0, -in_cam.z(), 0.0,
+          in_cam.x(), 0.0, 1.0, 0.0, in_cam.y(), -in_cam.x(), 0.0, 0.0, 0.0,
+          1.0;
+      const Eigen::Matrix<double, 2, 6> jacobian =
+          ProjectionJacobian(camera, in_cam) * motion;
+      normal += jacobian.transpose() * jacobian;
+      gradient += jacobian.transpose() * residual;
+      ++used;
+    }
+    if (used < kMinMatches) break;
+    const Eigen::Matrix<double, 6, 1> step = normal.ldlt().solve(gradient);
+    if (!step.allFinite()) break;
+    const Eigen::Vector3d rotation = step.head<3>();
+    const Eigen::Quaterniond increment(Eigen::AngleAxisd(
+        rotation.norm(), rotation.norm() > 0.0
+                             ? Eigen::Vector3d(rotation.normalized())
+                             : Eigen::Vector3d::UnitX()));
+    pose = Rigid3d(increment * pose.rotation,
+                   increment * pose.translation + step.tail<3>());
+  }
+  return pose;
+}
+
+}  // namespace
+
+bool DensifyOptions::Check() const {
+  return lsm.Check() && num_pyramid_levels >= 1 && num_pyramid_levels <= 8 &&
+         max_displacement_px > 0 && min_depth >= 0;
+}
+
+Eigen::Matrix2d PredictAffine(const LsmView& reference,
+                              const Eigen::Vector2d& reference_point,
+                              const Eigen::Vector3d& xyz,
+                              const LsmView& image) {
+  const double depth = (reference.cam_from_world * xyz).z();
+  const Rigid3d image_from_reference =
+      image.cam_from_world * Inverse(reference.cam_from_world);
+  const auto transfer = [&](const Eigen::Vector2d& pixel) {
+    const Eigen::Vector3d in_reference =
+        depth * reference.camera.CamFromImg(pixel).homogeneous();
+    return image.camera.ImgFromCam(image_from_reference * in_reference);
+  };
+  Eigen::Matrix2d affine;
+  for (int axis = 0; axis < 2; ++axis) {
+    const Eigen::Vector2d step = Eigen::Vector2d::Unit(axis);
+    affine.col(axis) = 0.5 * (transfer(reference_point + step) -
+                              transfer(reference_point - step));
+  }
+  return affine;
+}
+
+DensifyResult Densify(const LsmView& image,
+                      const std::vector<LsmView>& references,
+                      const std::vector<DensifyCandidate>& candidates,
+                      const DensifyOptions& options) {
+  if (!options.Check()) throw std::invalid_argument("invalid DensifyOptions");
+  const auto check_pyramid = [&](const LsmView& view) {
+    if (static_cast<int>(view.pyramid.size()) < options.num_pyramid_levels) {
+      throw std::invalid_argument("Densify: a view's pyramid has " +
+                                  std::to_string(view.pyramid.size()) +
+                                  " levels, the options need " +
+                                  std::to_string(options.num_pyramid_levels));
+    }
+  };
+  check_pyramid(image);
+  for (const LsmView& reference : references) check_pyramid(reference);
+
+  // Coarse levels: same window and tests, the shift bound scaled to the
+  // level's pixels.
+  std::vector<LsmMatcher> coarse_matchers;
+  for (int level = 1; level < options.num_pyramid_levels; ++level) {
+    LsmOptions coarse = options.lsm;
+    coarse.max_shift_px = std::max(options.lsm.max_shift_px,
+                                   options.max_displacement_px / (1 << level));
+    coarse_matchers.emplace_back(coarse);
+  }
+
+  // Pass 1: project, pick the reference, predict the window's shape and,
+  // coarse to fine down to level 1, estimate where each point lies.
+  struct Attempt {
+    int candidate;
+    const DensifyObservation* observation;
+    Eigen::Vector2d projection;
+    Eigen::Matrix2d affine;
+  };
+  std::vector<Attempt> attempts;
+  std::vector<Eigen::Vector3d> sample_points;
+  std::vector<Eigen::Vector2d> sample_positions;
+  DensifyResult result;
+  result.num_candidates = static_cast<int>(candidates.size());
+  const Eigen::Vector3d new_center = ProjectionCenter(image.cam_from_world);
+  for (size_t c = 0; c < candidates.size(); ++c) {
+    const DensifyCandidate& candidate = candidates[c];
+    for (const DensifyObservation& observation : candidate.observations) {
+      if (observation.view < 0 ||
+          observation.view >= static_cast<int>(references.size())) {
+        throw std::invalid_argument("Densify: observation of candidate " +
+                                    std::to_string(c) +
+                                    " names no reference view");
+      }
+    }
+    const Eigen::Vector3d in_cam = image.cam_from_world * candidate.xyz;
+    if (!(in_cam.z() > options.min_depth * in_cam.norm())) {
+      ++result.num_behind;
+      continue;
+    }
+    const Eigen::Vector2d projection = image.camera.ImgFromCam(in_cam);
+    if (!(projection.x() >= 0.0 && projection.y() >= 0.0 &&
+          projection.x() <= image.camera.width - 1.0 &&
+          projection.y() <= image.camera.height - 1.0)) {
+      ++result.num_outside;
+      continue;
+    }
+    const int closest = ClosestObservation(candidate, references, new_center,
+                                           options.lsm.window_size / 2 + 2);
+    if (closest < 0) {
+      ++result.num_no_reference;
+      continue;
+    }
+    const DensifyObservation& observation = candidate.observations[closest];
+    const LsmView& reference = references[observation.view];
+    Eigen::Matrix2d affine = Eigen::Matrix2d::Identity();
+    if (options.predict_affine) {
+      affine =
+          PredictAffine(reference, observation.point2D, candidate.xyz, image);
+      if (!affine.allFinite() || !(affine.determinant() > 0.0)) {
+        affine = Eigen::Matrix2d::Identity();
+      }
+    }
+    attempts.push_back({static_cast<int>(c), &observation, projection, affine});
+
+    Eigen::Vector2d estimate = projection;
+    Eigen::Matrix2d coarse_affine = affine;
+    bool found = false;
+    for (int level = options.num_pyramid_levels - 1; level >= 1; --level) {
+      const double scale = 1.0 / (1 << level);
+      const LsmResult coarse = coarse_matchers[level - 1].Match(
+          reference.pyramid[level], scale * observation.point2D,
+          image.pyramid[level], scale * estimate, coarse_affine);
+      found = coarse.Converged();
+      if (found) {
+        estimate = coarse.point2 / scale;
+        coarse_affine = coarse.affine;
+      }
+    }
+    if (found) {
+      sample_points.push_back(candidate.xyz);
+      sample_positions.push_back(estimate);
+    }
+  }
+
+  // Every point starts from the pose corrected to all coarse matches, not
+  // from its own coarse match: coarse windows straddle depth edges and some
+  // land wrong.
+  const Rigid3d corrected =
+      CorrectPose(image.camera, image.cam_from_world, sample_points,
+                  sample_positions, options.lsm.max_shift_px);
+
+  // Pass 2: full-resolution LSM from the corrected start decides.
+  LsmMatcher matcher(options.lsm);
+  for (const Attempt& attempt : attempts) {
+    const LsmView& reference = references[attempt.observation->view];
+    const LsmResult fine = matcher.Match(
+        reference.pyramid[0], attempt.observation->point2D, image.pyramid[0],
+        image.camera.ImgFromCam(corrected * candidates[attempt.candidate].xyz),
+        attempt.affine);
+    result.lsm_counts.Add(fine.status);
+    if (!fine.Converged()) continue;
+    if ((fine.point2 - attempt.projection).norm() >
+        options.max_displacement_px) {
+      ++result.num_displaced;
+      continue;
+    }
+
+    result.matches.push_back(
+        {attempt.candidate, attempt.observation->view, fine.point2, fine});
+  }
+  return result;
+}
+
+}  // namespace flysfm

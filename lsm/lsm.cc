@@ -1,0 +1,573 @@
+#include "lsm/lsm.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <stdexcept>
+#include <string>
+
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+#include <opencv2/imgproc.hpp>
+
+#include "geometry/check.h"
+
+namespace flysfm {
+namespace {
+
+// Parameter order: a0 a1 a2 b0 b1 b2 h0 h1.
+using Vector8d = Eigen::Matrix<double, 8, 1>;
+using Matrix8d = Eigen::Matrix<double, 8, 8>;
+enum : int { kA0 = 0, kA1, kA2, kB0, kB1, kB2, kH0, kH1 };
+
+Eigen::Matrix2d LinearPart(const Vector8d& p) {
+  Eigen::Matrix2d a;
+  a << p[kA1], p[kA2], p[kB1], p[kB2];
+  return a;
+}
+
+// An interpolated value and its derivatives along x and y.
+struct Interpolated {
+  float value;
+  float dx;
+  float dy;
+};
+
+// Bilinear interpolation; the caller guarantees 0 <= x < width - 1 and
+// 0 <= y < height - 1.
+inline Interpolated Bilinear(const float* data, int stride, double x,
+                             double y) {
+  const int x0 = static_cast<int>(x);
+  const int y0 = static_cast<int>(y);
+  const float fx = static_cast<float>(x - x0);
+  const float fy = static_cast<float>(y - y0);
+  const float* p = data + static_cast<std::ptrdiff_t>(y0) * stride + x0;
+  const float top_dx = p[1] - p[0];
+  const float bottom_dx = p[stride + 1] - p[stride];
+  const float top = p[0] + fx * top_dx;
+  const float bottom = p[stride] + fx * bottom_dx;
+  return {top + fy * (bottom - top), top_dx + fy * (bottom_dx - top_dx),
+          bottom - top};
+}
+
+// Cubic B-spline weights of the taps at -1, 0, 1, 2 for a fraction t in
+// [0, 1), and their derivatives by t.
+inline void SplineWeights(float t, float w[4], float dw[4]) {
+  const float s = 1.f - t;
+  const float t2 = t * t;
+  w[0] = s * s * s * (1.f / 6.f);
+  w[1] = (2.f / 3.f) - t2 + 0.5f * t2 * t;
+  w[3] = t2 * t * (1.f / 6.f);
+  w[2] = 1.f - w[0] - w[1] - w[3];
+  dw[0] = -0.5f * s * s;
+  dw[1] = -2.f * t + 1.5f * t2;
+  dw[3] = 0.5f * t2;
+  dw[2] = -dw[0] - dw[1] - dw[3];
+}
+
+// Four floats in one SIMD register (GCC/Clang vector extension; SSE on
+// x86-64, NEON on ARM): a row of the 4x4 spline footprint.
+typedef float Float4 __attribute__((vector_size(16)));
+
+inline Float4 Load4(const float* p) {
+  Float4 v;
+  std::memcpy(&v, p, sizeof(v));
+  return v;
+}
+
+inline float Sum4(Float4 v) { return (v[0] + v[1]) + (v[2] + v[3]); }
+
+// Cubic B-spline interpolation from prefiltered coefficients, with the
+// interpolant's exact derivatives; the caller guarantees 1 <= x < width - 2
+// and 1 <= y < height - 2.
+inline Interpolated CubicSpline(const float* coefficients, int stride, double x,
+                                double y) {
+  const int x0 = static_cast<int>(x);
+  const int y0 = static_cast<int>(y);
+  float wx[4], dwx[4], wy[4], dwy[4];
+  SplineWeights(static_cast<float>(x - x0), wx, dwx);
+  SplineWeights(static_cast<float>(y - y0), wy, dwy);
+  const float* p =
+      coefficients + static_cast<std::ptrdiff_t>(y0 - 1) * stride + x0 - 1;
+  const Float4 r0 = Load4(p);
+  const Float4 r1 = Load4(p + stride);
+  const Float4 r2 = Load4(p + 2 * stride);
+  const Float4 r3 = Load4(p + 3 * stride);
+  const Float4 rows = wy[0] * r0 + wy[1] * r1 + wy[2] * r2 + wy[3] * r3;
+  const Float4 rows_dy = dwy[0] * r0 + dwy[1] * r1 + dwy[2] * r2 + dwy[3] * r3;
+  return {Sum4(rows * Load4(wx)), Sum4(rows * Load4(dwx)),
+          Sum4(rows_dy * Load4(wx))};
+}
+
+// Pixels an interpolator reads beyond the sample's floor: before, after.
+int MarginBefore(LsmInterpolation interpolation) {
+  return interpolation == LsmInterpolation::kCubicSpline ? 1 : 0;
+}
+int MarginAfter(LsmInterpolation interpolation) {
+  return interpolation == LsmInterpolation::kCubicSpline ? 2 : 1;
+}
+
+// In place, the cubic B-spline coefficients of n samples spaced `stride`
+// apart, with mirror boundaries (Unser 1999, "Splines: a perfect fit for
+// signal and image processing"; causal and anti-causal recursion).
+void SplinePrefilter(float* line, int n, int stride,
+                     std::vector<double>* work) {
+  if (n < 2) return;
+  const double z = std::sqrt(3.0) - 2.0;
+  std::vector<double>& c = *work;
+  c.resize(n);
+  for (int i = 0; i < n; ++i)
+    c[i] = 6.0 * line[static_cast<std::ptrdiff_t>(i) * stride];
+  // |z|^12 < 1e-6: the mirrored causal sum is truncated there.
+  const int horizon = std::min(n, 12);
+  double sum = 0.0;
+  double power = 1.0;
+  for (int i = 0; i < horizon; ++i, power *= z) sum += power * c[i];
+  c[0] = sum;
+  for (int i = 1; i < n; ++i) c[i] += z * c[i - 1];
+  c[n - 1] = (z / (z * z - 1.0)) * (z * c[n - 2] + c[n - 1]);
+  for (int i = n - 2; i >= 0; --i) c[i] = z * (c[i + 1] - c[i]);
+  for (int i = 0; i < n; ++i)
+    line[static_cast<std::ptrdiff_t>(i) * stride] = static_cast<float>(c[i]);
+}
+
+// Whether the parallelogram of window offsets |u|, |v| <= reach mapped by
+// (center, linear) lies where the interpolator may read.
+bool InsideForSampling(const LsmImage& image, const Eigen::Vector2d& center,
+                       const Eigen::Matrix2d& linear, int reach,
+                       LsmInterpolation interpolation) {
+  const double low = MarginBefore(interpolation);
+  const double high_x = image.width() - MarginAfter(interpolation);
+  const double high_y = image.height() - MarginAfter(interpolation);
+  for (const int su : {-1, 1}) {
+    for (const int sv : {-1, 1}) {
+      const Eigen::Vector2d corner =
+          center + linear * Eigen::Vector2d(su * reach, sv * reach);
+      if (!(corner.x() >= low && corner.y() >= low && corner.x() < high_x &&
+            corner.y() < high_y)) {
+        return false;
+      }
+    }
+  }
+  return true;
+}
+
+// Samples (2 reach + 1)^2 points of the affinely mapped grid in row order:
+// values and image derivatives.
+template <typename Interpolator>
+void SampleGridWith(const float* data, int stride,
+                    const Eigen::Vector2d& center,
+                    const Eigen::Matrix2d& linear, int reach,
+                    Interpolator interpolate, float* values, float* dx,
+                    float* dy) {
+  int k = 0;
+  for (int v = -reach; v <= reach; ++v) {
+    double x = center.x() - reach * linear(0, 0) + v * linear(0, 1);
+    double y = center.y() - reach * linear(1, 0) + v * linear(1, 1);
+    for (int u = -reach; u <= reach; ++u, ++k) {
+      const Interpolated sample = interpolate(data, stride, x, y);
+      values[k] = sample.value;
+      dx[k] = sample.dx;
+      dy[k] = sample.dy;
+      x += linear(0, 0);
+      y += linear(1, 0);
+    }
+  }
+}
+
+void MeanAndStddev(const Eigen::Ref<const Eigen::VectorXf>& values,
+                   double* mean, double* stddev) {
+  *mean = values.cast<double>().mean();
+  *stddev = std::sqrt(std::max(
+      0.0,
+      values.cast<double>().squaredNorm() / values.size() - *mean * *mean));
+}
+
+}  // namespace
+
+LsmImage::LsmImage(const cv::Mat& grey) {
+  if (grey.empty() || grey.channels() != 1 ||
+      (grey.depth() != CV_8U && grey.depth() != CV_32F)) {
+    throw std::invalid_argument(
+        "LSM needs a non-empty one-channel CV_8U or CV_32F image");
+  }
+  grey.convertTo(pixels_, CV_32F);
+  if (!pixels_.isContinuous()) pixels_ = pixels_.clone();
+  ComputeSplineCoefficients();
+}
+
+void LsmImage::ComputeSplineCoefficients() {
+  spline_ = pixels_.clone();
+  std::vector<double> work;
+  float* data = spline_.ptr<float>();
+  for (int y = 0; y < spline_.rows; ++y) {
+    SplinePrefilter(data + static_cast<std::ptrdiff_t>(y) * spline_.cols,
+                    spline_.cols, 1, &work);
+  }
+  for (int x = 0; x < spline_.cols; ++x) {
+    SplinePrefilter(data + x, spline_.rows, spline_.cols, &work);
+  }
+}
+
+LsmImage LsmImage::HalfResolution() const {
+  LsmImage half;
+  cv::pyrDown(pixels_, half.pixels_);
+  half.ComputeSplineCoefficients();
+  return half;
+}
+
+std::vector<LsmImage> BuildLsmPyramid(const cv::Mat& grey, int num_levels) {
+  if (num_levels < 1) {
+    throw std::invalid_argument("an LSM pyramid needs at least one level");
+  }
+  std::vector<LsmImage> levels;
+  levels.reserve(num_levels);
+  levels.emplace_back(grey);
+  for (int level = 1; level < num_levels; ++level) {
+    levels.push_back(levels.back().HalfResolution());
+  }
+  return levels;
+}
+
+bool LsmOptions::Check() const {
+  return window_size >= 7 && window_size <= 31 && window_size % 2 == 1 &&
+         convergence_shift_px > 0 &&
+         convergence_corner_px >= convergence_shift_px && max_iterations >= 1 &&
+         max_shift_px > 0 && min_ncc >= -1 && min_ncc <= 1 &&
+         min_gradient >= 0 && min_stddev >= 0 && max_condition_number > 1 &&
+         max_affine_scale > 1;
+}
+
+const char* LsmStatusName(LsmStatus status) {
+  switch (status) {
+    case LsmStatus::kConverged:
+      return "converged";
+    case LsmStatus::kInvalidInput:
+      return "invalid_input";
+    case LsmStatus::kOutsideImage:
+      return "outside_image";
+    case LsmStatus::kLowTexture:
+      return "low_texture";
+    case LsmStatus::kDiverged:
+      return "diverged";
+    case LsmStatus::kNoConvergence:
+      return "no_convergence";
+    case LsmStatus::kShiftTooLarge:
+      return "shift_too_large";
+    case LsmStatus::kIllConditioned:
+      return "ill_conditioned";
+    case LsmStatus::kLowCorrelation:
+      return "low_correlation";
+  }
+  return "unknown";
+}
+
+int LsmStatusCounts::Total() const {
+  int total = 0;
+  for (const int count : counts) total += count;
+  return total;
+}
+
+double NormalizedCrossCorrelation(const Eigen::Ref<const Eigen::VectorXf>& a,
+                                  const Eigen::Ref<const Eigen::VectorXf>& b) {
+  FLYSFM_CHECK(a.size() == b.size() && a.size() > 0);
+  const double n = static_cast<double>(a.size());
+  const double mean_a = a.cast<double>().mean();
+  const double mean_b = b.cast<double>().mean();
+  const double covariance =
+      a.cast<double>().dot(b.cast<double>()) - n * mean_a * mean_b;
+  const double variance_a =
+      a.cast<double>().squaredNorm() - n * mean_a * mean_a;
+  const double variance_b =
+      b.cast<double>().squaredNorm() - n * mean_b * mean_b;
+  const double denominator = std::sqrt(variance_a * variance_b);
+  if (!(denominator > 0.0)) return 0.0;
+  return covariance / denominator;
+}
+
+struct LsmMatcher::Evaluation {
+  Matrix8d normal;
+  Vector8d gradient;  // J^T r
+  double cost = 0.0;  // r^T r
+  int buffer = 0;     // which warped_ holds its window
+};
+
+LsmMatcher::LsmMatcher(const LsmOptions& options) : options_(options) {
+  if (!options.Check()) throw std::invalid_argument("invalid LsmOptions");
+  radius_ = options.window_size / 2;
+  num_pixels_ = options.window_size * options.window_size;
+  const int bordered = (options.window_size + 2) * (options.window_size + 2);
+  template_.resize(num_pixels_);
+  template_border_.resize(bordered);
+  for (Eigen::VectorXf& buffer : warped_) buffer.resize(num_pixels_);
+  warped_dx_.resize(num_pixels_);
+  warped_dy_.resize(num_pixels_);
+  jacobian_.resize(num_pixels_, 8);
+  residuals_.resize(num_pixels_);
+}
+
+bool LsmMatcher::Sample(const LsmImage& image, const Vector8d& params,
+                        int buffer, LsmInterpolation interpolation) {
+  const Eigen::Vector2d center(params[kA0], params[kB0]);
+  const Eigen::Matrix2d linear = LinearPart(params);
+  if (!InsideForSampling(image, center, linear, radius_, interpolation)) {
+    return false;
+  }
+  float* values = warped_[buffer].data();
+  if (interpolation == LsmInterpolation::kCubicSpline) {
+    SampleGridWith(image.spline_coefficients(), image.width(), center, linear,
+                   radius_, CubicSpline, values, warped_dx_.data(),
+                   warped_dy_.data());
+  } else {
+    SampleGridWith(image.data(), image.width(), center, linear, radius_,
+                   Bilinear, values, warped_dx_.data(), warped_dy_.data());
+  }
+  return true;
+}
+
+void LsmMatcher::Linearize(const Vector8d& params, int buffer,
+                           Evaluation* evaluation) {
+  // Columns of the Jacobian in float: the normal matrix is then 36 dot
+  // products over contiguous columns, which vectorize; an 8x8 outer product
+  // per pixel would not fit the registers.
+  const float h0 = static_cast<float>(params[kH0]);
+  const float h1 = static_cast<float>(params[kH1]);
+  const float* values = warped_[buffer].data();
+  float* column[8];
+  for (int c = 0; c < 8; ++c) column[c] = jacobian_.col(c).data();
+  float* residual = residuals_.data();
+  int k = 0;
+  for (int v = -radius_; v <= radius_; ++v) {
+    const float fv = static_cast<float>(v);
+    for (int u = -radius_; u <= radius_; ++u, ++k) {
+      const float fu = static_cast<float>(u);
+      const float gx = h1 * warped_dx_[k];
+      const float gy = h1 * warped_dy_[k];
+      column[kA0][k] = gx;
+      column[kA1][k] = gx * fu;
+      column[kA2][k] = gx * fv;
+      column[kB0][k] = gy;
+      column[kB1][k] = gy * fu;
+      column[kB2][k] = gy * fv;
+      column[kH0][k] = 1.f;
+      column[kH1][k] = values[k];
+      residual[k] = template_[k] - h0 - h1 * values[k];
+    }
+  }
+  for (int c = 0; c < 8; ++c) {
+    for (int r = c; r < 8; ++r) {
+      evaluation->normal(r, c) = evaluation->normal(c, r) =
+          jacobian_.col(r).dot(jacobian_.col(c));
+    }
+    evaluation->gradient[c] = jacobian_.col(c).dot(residuals_);
+  }
+  evaluation->cost = residuals_.squaredNorm();
+  evaluation->buffer = buffer;
+}
+
+LsmResult LsmMatcher::Match(const LsmImage& image1,
+                            const Eigen::Vector2d& point1,
+                            const LsmImage& image2,
+                            const Eigen::Vector2d& point2,
+                            const Eigen::Matrix2d& affine) {
+  LsmResult result;
+  result.point2 = point2;
+  result.affine = affine;
+  if (!point1.allFinite() || !point2.allFinite() || !affine.allFinite() ||
+      !(affine.determinant() > 0.0)) {
+    result.status = LsmStatus::kInvalidInput;
+    return result;
+  }
+
+  // The template is read at whole pixels around the anchor, so that it is
+  // not smoothed by interpolation; the affine map carries point1's offset
+  // from the anchor into image 2.
+  const int reach = radius_ + 1;
+  if (!(point1.x() >= reach - 0.5 && point1.y() >= reach - 0.5 &&
+        point1.x() < image1.width() - reach - 0.5 &&
+        point1.y() < image1.height() - reach - 0.5)) {
+    result.status = LsmStatus::kOutsideImage;
+    return result;
+  }
+  const int anchor_x = static_cast<int>(std::lround(point1.x()));
+  const int anchor_y = static_cast<int>(std::lround(point1.y()));
+  const Eigen::Vector2d offset1 = point1 - Eigen::Vector2d(anchor_x, anchor_y);
+
+  const int stride = options_.window_size + 2;
+  const float* pixels = image1.data();
+  for (int v = -reach; v <= reach; ++v) {
+    const float* row =
+        pixels + static_cast<std::ptrdiff_t>(anchor_y + v) * image1.width() +
+        anchor_x - reach;
+    std::copy(row, row + stride,
+              template_border_.data() + (v + reach) * stride);
+  }
+  Eigen::Matrix2d structure = Eigen::Matrix2d::Zero();
+  int k = 0;
+  for (int v = 0; v < options_.window_size; ++v) {
+    const float* row = template_border_.data() + (v + 1) * stride + 1;
+    for (int u = 0; u < options_.window_size; ++u, ++k) {
+      const float* s = row + u;
+      template_[k] = s[0];
+      const double gu = 0.5 * (s[1] - s[-1]);
+      const double gv = 0.5 * (s[stride] - s[-stride]);
+      structure(0, 0) += gu * gu;
+      structure(0, 1) += gu * gv;
+      structure(1, 1) += gv * gv;
+    }
+  }
+  structure(1, 0) = structure(0, 1);
+  structure /= num_pixels_;
+  // Smaller eigenvalue of the symmetric 2x2 tensor, in closed form.
+  const double half_trace = 0.5 * structure.trace();
+  const double weakest =
+      half_trace - std::sqrt(std::max(
+                       0.0, half_trace * half_trace - structure.determinant()));
+  double template_mean = 0.0;
+  double template_stddev = 0.0;
+  MeanAndStddev(template_, &template_mean, &template_stddev);
+  if (!(std::sqrt(std::max(0.0, weakest)) >= options_.min_gradient) ||
+      !(template_stddev >= options_.min_stddev)) {
+    result.status = LsmStatus::kLowTexture;
+    return result;
+  }
+
+  // point2 = (a0, b0) + A offset1; its derivative by the parameters.
+  Eigen::Matrix<double, 2, 8> point_jacobian =
+      Eigen::Matrix<double, 2, 8>::Zero();
+  point_jacobian.row(0).segment<3>(kA0) << 1.0, offset1.x(), offset1.y();
+  point_jacobian.row(1).segment<3>(kB0) << 1.0, offset1.x(), offset1.y();
+  const Eigen::Vector2d anchor2 = point2 - affine * offset1;
+  Vector8d params;
+  params << anchor2.x(), affine(0, 0), affine(0, 1), anchor2.y(), affine(1, 0),
+      affine(1, 1), 0.0, 1.0;
+  if (!Sample(image2, params, 0, options_.interpolation)) {
+    result.status = LsmStatus::kOutsideImage;
+    return result;
+  }
+  // Radiometric start from the windows' means and contrasts, so that the
+  // first steps are spent on geometry.
+  double warped_mean = 0.0;
+  double warped_stddev = 0.0;
+  MeanAndStddev(warped_[0], &warped_mean, &warped_stddev);
+  if (!(warped_stddev >= options_.min_stddev)) {
+    result.status = LsmStatus::kLowTexture;
+    return result;
+  }
+  params[kH1] = template_stddev / warped_stddev;
+  params[kH0] = template_mean - params[kH1] * warped_mean;
+  Evaluation current;
+  Linearize(params, 0, &current);
+
+  const bool damped = options_.solver == LsmSolver::kLevenbergMarquardt;
+  double lambda = 1e-3;
+  bool converged = false;
+  Evaluation candidate;
+  for (int iteration = 1; iteration <= options_.max_iterations; ++iteration) {
+    result.num_iterations = iteration;
+    Matrix8d system = current.normal;
+    if (damped) system.diagonal() *= 1.0 + lambda;
+    const Eigen::LDLT<Matrix8d> solver(system);
+    if (solver.info() != Eigen::Success || !solver.isPositive()) {
+      result.status = LsmStatus::kIllConditioned;
+      return result;
+    }
+    const Vector8d step = solver.solve(current.gradient);
+    const Vector8d next = params + step;
+    const Eigen::Matrix2d next_linear = LinearPart(next);
+    if (!next.allFinite() || !(next[kH1] > 0.0) ||
+        !(next_linear.determinant() > 0.0)) {
+      result.status = LsmStatus::kDiverged;
+      return result;
+    }
+    const Eigen::Vector2d singular_values =
+        Eigen::JacobiSVD<Eigen::Matrix2d>(next_linear).singularValues();
+    if (singular_values[0] > options_.max_affine_scale ||
+        singular_values[1] < 1.0 / options_.max_affine_scale) {
+      result.status = LsmStatus::kDiverged;
+      return result;
+    }
+    const int spare = 1 - current.buffer;
+    if (!Sample(image2, next, spare, options_.interpolation)) {
+      result.status = LsmStatus::kOutsideImage;
+      return result;
+    }
+    Linearize(next, spare, &candidate);
+    const double point_shift = (point_jacobian * step).norm();
+    double corner_shift = 0.0;
+    for (const double su : {-radius_, radius_}) {
+      for (const double sv : {-radius_, radius_}) {
+        corner_shift =
+            std::max(corner_shift,
+                     std::hypot(step[kA0] + su * step[kA1] + sv * step[kA2],
+                                step[kB0] + su * step[kB1] + sv * step[kB2]));
+      }
+    }
+    // Converged when the point has settled and the window's shape has too:
+    // the point's shift alone can stall while the affine part is far off.
+    const double shift =
+        std::max(point_shift, corner_shift * options_.convergence_shift_px /
+                                  options_.convergence_corner_px);
+    if (damped && !(candidate.cost < current.cost)) {
+      lambda *= 10.0;
+      // A rejected step this small means no descent is left.
+      if (shift < options_.convergence_shift_px) {
+        converged = true;
+        break;
+      }
+      continue;
+    }
+    if (damped) lambda = std::max(lambda / 10.0, 1e-9);
+    params = next;
+    std::swap(current, candidate);
+    if (shift < options_.convergence_shift_px) {
+      converged = true;
+      break;
+    }
+  }
+
+  result.affine = LinearPart(params);
+  result.point2 =
+      Eigen::Vector2d(params[kA0], params[kB0]) + result.affine * offset1;
+  result.h0 = params[kH0];
+  result.h1 = params[kH1];
+  result.ncc = NormalizedCrossCorrelation(template_, warped_[current.buffer]);
+  result.sigma0 = std::sqrt(current.cost / (num_pixels_ - 8));
+  if (!converged) {
+    result.status = LsmStatus::kNoConvergence;
+    return result;
+  }
+  if ((result.point2 - point2).norm() > options_.max_shift_px) {
+    result.status = LsmStatus::kShiftTooLarge;
+    return result;
+  }
+  // Condition of the normal matrix with unit diagonal: the parameters'
+  // units (pixels, grey levels, ratios) then no longer matter.
+  const Vector8d scale = current.normal.diagonal().cwiseSqrt().cwiseInverse();
+  if (!scale.allFinite()) {
+    result.status = LsmStatus::kIllConditioned;
+    return result;
+  }
+  const Matrix8d scaled =
+      scale.asDiagonal() * current.normal * scale.asDiagonal();
+  const Eigen::SelfAdjointEigenSolver<Matrix8d> eigen(scaled,
+                                                      Eigen::EigenvaluesOnly);
+  const double smallest = eigen.eigenvalues()[0];
+  if (!(smallest > 0.0) ||
+      eigen.eigenvalues()[7] / smallest > options_.max_condition_number) {
+    result.status = LsmStatus::kIllConditioned;
+    return result;
+  }
+  if (!(result.ncc >= options_.min_ncc)) {
+    result.status = LsmStatus::kLowCorrelation;
+    return result;
+  }
+  const Eigen::Matrix<double, 8, 2> solved =
+      current.normal.ldlt().solve(point_jacobian.transpose());
+  result.point2_covariance =
+      result.sigma0 * result.sigma0 * (point_jacobian * solved);
+  result.status = LsmStatus::kConverged;
+  return result;
+}
+
+}  // namespace flysfm
