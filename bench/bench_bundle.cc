@@ -1,0 +1,209 @@
+// Time of one hierarchical weighted local BA for a newly added image and of
+// one global BA, on survey blocks of growing size: the paper's Fig. 11 as a
+// table. Target: local BA time flat in the block size (at 5 000 images within
+// 1.5x of its time at 100) and under 100 ms for the default tree.
+//
+// Usage: bench_bundle [--local-only] [sizes...]   (default 100 1000 5000)
+// --local-only skips the global BA (about 20 minutes at 5 000 images on a
+// loaded 2-core machine).
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <random>
+#include <ctime>
+#include <string>
+#include <vector>
+
+#include "bundle/association_tree.h"
+#include "bundle/bundle_adjuster.h"
+#include "tests/bundle/synthetic_problem.h"
+#include "tests/testing/ground_path.h"
+
+namespace flysfm {
+namespace {
+
+constexpr int kLocalTrials = 7;
+
+// CPU time of this thread: with one solver thread it is what the solve would
+// take on an idle core, whatever the other processes on the machine do.
+double ThreadCpuMs() {
+  timespec t;
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  return 1e3 * t.tv_sec + 1e-6 * t.tv_nsec;
+}
+
+double Median(std::vector<double> values) {
+  std::sort(values.begin(), values.end());
+  return values[values.size() / 2];
+}
+
+struct Row {
+  int images = 0;
+  int points = 0;
+  int observations = 0;
+  int tree_images = 0;
+  int local_free = 0;
+  int local_constant = 0;
+  int local_residuals = 0;
+  double local_ms = 0;        // median solve time
+  double local_max_ms = 0;
+  double local_cpu_ms = 0;    // median thread CPU time of the solve
+  double local_setup_ms = 0;  // median time outside ceres::Solve
+  double extract_ms = 0;      // median time to cut the block out
+  int local_iterations = 0;   // median
+  double local_error_px = 0;  // final mean reprojection error
+  double global_s = 0;
+  double global_cpu_s = 0;
+  int global_iterations = 0;
+  double global_error_px = 0;
+  std::string global_solver = "skipped";
+};
+
+Row Measure(int num_images, bool global_ba) {
+  testing::GroundPathSceneOptions scene_options;
+  scene_options.num_images = num_images;
+  scene_options.noise_px = 0.5;
+  scene_options.seed = 5;
+  const testing::SyntheticScene scene = testing::MakeGroundPathScene(scene_options);
+  BundleProblem problem = testing::BundleProblemFromScene(scene);
+  const HierarchicalAssociationTree::Options tree_options;
+  const std::vector<std::vector<int>> ranked =
+      testing::RankByCovisibility(scene, tree_options.top_n);
+
+  Row row;
+  row.images = num_images;
+  row.points = static_cast<int>(problem.points.size());
+  row.observations = static_cast<int>(problem.observations.size());
+
+  // Each of the last images in turn plays the newly added one, its pose off
+  // by what a PnP registration leaves (0.5 degree, 0.1 at 10 above ground).
+  std::mt19937 rng(1);
+  const BundleAdjuster adjuster({});
+  std::vector<double> solve_ms, cpu_ms, setup_ms, extract_ms, iterations;
+  for (int trial = 0; trial < kLocalTrials; ++trial) {
+    const int new_image = num_images - 1 - trial;
+    const auto start = std::chrono::steady_clock::now();
+    const HierarchicalAssociationTree tree = HierarchicalAssociationTree::Build(
+        new_image, [&](int id) { return ranked[id]; }, tree_options);
+    LocalBundle local = ExtractLocalBundle(problem, tree);
+    extract_ms.push_back(std::chrono::duration<double, std::milli>(
+                             std::chrono::steady_clock::now() - start)
+                             .count());
+    testing::PerturbPose(rng, 0.5, 0.1, &local.problem.images[0].cam_from_world);
+    const double cpu_start = ThreadCpuMs();
+    const BundleAdjuster::Summary summary = adjuster.Solve(&local.problem);
+    cpu_ms.push_back(ThreadCpuMs() - cpu_start);
+    if (!summary.IsSolutionUsable()) {
+      std::fprintf(stderr, "local BA failed: %s\n", summary.message.c_str());
+      std::exit(1);
+    }
+    solve_ms.push_back(1e3 * summary.total_time_seconds);
+    setup_ms.push_back(
+        1e3 * (summary.total_time_seconds - summary.solver_time_seconds));
+    iterations.push_back(summary.num_iterations);
+    if (trial == 0) {
+      row.tree_images = tree.NumImages();
+      row.local_free = summary.num_free_images;
+      row.local_constant = static_cast<int>(local.problem.images.size()) -
+                           summary.num_free_images;
+      row.local_residuals = summary.num_residuals;
+      row.local_error_px = summary.final_mean_reprojection_error_px;
+    }
+  }
+  row.local_ms = Median(solve_ms);
+  row.local_max_ms = *std::max_element(solve_ms.begin(), solve_ms.end());
+  row.local_cpu_ms = Median(cpu_ms);
+  row.local_setup_ms = Median(setup_ms);
+  row.extract_ms = Median(extract_ms);
+  row.local_iterations = static_cast<int>(Median(iterations));
+
+  if (!global_ba) return row;
+  // One global BA of the whole block from slightly disturbed poses.
+  for (size_t i = 1; i < problem.images.size(); ++i) {
+    testing::PerturbPose(rng, 0.05, 0.02, &problem.images[i].cam_from_world);
+  }
+  const double cpu_start = ThreadCpuMs();
+  const BundleAdjuster::Summary global = adjuster.Solve(&problem);
+  row.global_cpu_s = 1e-3 * (ThreadCpuMs() - cpu_start);
+  row.global_s = global.total_time_seconds;
+  row.global_iterations = global.num_iterations;
+  row.global_error_px = global.final_mean_reprojection_error_px;
+  row.global_solver = global.linear_solver;
+  return row;
+}
+
+}  // namespace
+}  // namespace flysfm
+
+int main(int argc, char** argv) {
+  std::vector<int> sizes;
+  bool global_ba = true;
+  for (int i = 1; i < argc; ++i) {
+    if (std::string(argv[i]) == "--local-only") {
+      global_ba = false;
+    } else {
+      sizes.push_back(std::atoi(argv[i]));
+    }
+  }
+  if (sizes.empty()) sizes = {100, 1000, 5000};
+
+  std::vector<flysfm::Row> rows;
+  std::printf("%7s %8s %9s | %5s %5s %5s %7s %9s %8s %8s %8s %7s %5s %6s | "
+              "%9s %9s %5s %6s %s\n",
+              "images", "points", "obs", "tree", "free", "const", "resid",
+              "local_ms", "max_ms", "cpu_ms", "setup_ms", "cut_ms", "iter",
+              "px", "global_s", "cpu_s", "iter", "px", "solver");
+  for (const int size : sizes) {
+    const flysfm::Row r = flysfm::Measure(size, global_ba);
+    std::printf("%7d %8d %9d | %5d %5d %5d %7d %9.1f %8.1f %8.1f %8.1f %7.1f "
+                "%5d %6.3f | %9.2f %9.2f %5d %6.3f %s\n",
+                r.images, r.points, r.observations, r.tree_images, r.local_free,
+                r.local_constant, r.local_residuals, r.local_ms, r.local_max_ms,
+                r.local_cpu_ms, r.local_setup_ms, r.extract_ms,
+                r.local_iterations, r.local_error_px, r.global_s, r.global_cpu_s,
+                r.global_iterations, r.global_error_px, r.global_solver.c_str());
+    std::fflush(stdout);
+    rows.push_back(r);
+  }
+
+  // Targets, judged on the median wall time (as the user waits) and on the
+  // thread CPU time (as an idle core would run it).
+  const flysfm::Row& first = rows.front();
+  const flysfm::Row& last = rows.back();
+  const double ratio = last.local_ms / first.local_ms;
+  const double cpu_ratio = last.local_cpu_ms / first.local_cpu_ms;
+  const bool wall_under_100ms = last.local_ms < 100;
+  const bool cpu_under_100ms = last.local_cpu_ms < 100;
+  std::printf("local BA %d vs %d images: wall ratio %.2f, cpu ratio %.2f "
+              "(target <= 1.5); at %d images wall %.1f ms, cpu %.1f ms "
+              "(target < 100)\n",
+              last.images, first.images, ratio, cpu_ratio, last.images,
+              last.local_ms, last.local_cpu_ms);
+
+  std::string json = "{\"bench\":\"bundle\",\"rows\":[";
+  for (size_t i = 0; i < rows.size(); ++i) {
+    const flysfm::Row& r = rows[i];
+    char buffer[512];
+    std::snprintf(buffer, sizeof buffer,
+                  "%s{\"images\":%d,\"tree_images\":%d,\"local_free\":%d,"
+                  "\"local_residuals\":%d,\"local_ms\":%.2f,\"local_cpu_ms\":%.2f,"
+                  "\"local_max_ms\":%.2f,\"cut_ms\":%.2f,\"global_s\":%.3f,"
+                  "\"global_cpu_s\":%.3f,\"global_iterations\":%d}",
+                  i ? "," : "", r.images, r.tree_images, r.local_free,
+                  r.local_residuals, r.local_ms, r.local_cpu_ms, r.local_max_ms,
+                  r.extract_ms, r.global_s, r.global_cpu_s, r.global_iterations);
+    json += buffer;
+  }
+  char tail[256];
+  std::snprintf(tail, sizeof tail,
+                "],\"local_ratio\":%.3f,\"local_cpu_ratio\":%.3f,"
+                "\"ratio_ok\":%s,\"under_100ms_wall\":%s,\"under_100ms_cpu\":%s}",
+                ratio, cpu_ratio, ratio <= 1.5 ? "true" : "false",
+                wall_under_100ms ? "true" : "false",
+                cpu_under_100ms ? "true" : "false");
+  json += tail;
+  std::printf("%s\n", json.c_str());
+  return 0;
+}

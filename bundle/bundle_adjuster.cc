@@ -1,0 +1,456 @@
+#include "bundle/bundle_adjuster.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <memory>
+#include <sstream>
+#include <vector>
+
+#include <ceres/ceres.h>
+
+#include "bundle/cost_functions.h"
+#include "geometry/check.h"
+
+namespace flysfm {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using Matrix2x6d = Eigen::Matrix<double, 2, 6>;
+using Matrix6x3d = Eigen::Matrix<double, 6, 3>;
+using RowMatrix2x3d = Eigen::Matrix<double, 2, 3, Eigen::RowMajor>;
+using RowMatrix2x4d = Eigen::Matrix<double, 2, 4, Eigen::RowMajor>;
+using RowMatrix4x3d = Eigen::Matrix<double, 4, 3, Eigen::RowMajor>;
+
+double SecondsSince(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+// One observation as it entered the Ceres problem.
+struct AddedResidual {
+  int observation = 0;
+  ceres::CostFunction* cost = nullptr;  // owned by the Ceres problem
+  std::vector<double*> blocks;
+  bool pose_free = false;
+};
+
+// The poses held constant for the solve (the problem's flags plus the gauge)
+// and the translation component held for scale, if any.
+struct GaugeChoice {
+  std::vector<char> constant_pose;
+  int scale_image = -1;
+  int scale_axis = -1;
+};
+
+GaugeChoice ChooseGauge(const BundleProblem& problem,
+                        const std::vector<char>& observed,
+                        BundleAdjuster::Options::Gauge gauge) {
+  GaugeChoice choice;
+  const int num_images = static_cast<int>(problem.images.size());
+  choice.constant_pose.resize(num_images);
+  int num_constant = 0;
+  for (int i = 0; i < num_images; ++i) {
+    choice.constant_pose[i] = problem.images[i].constant_pose;
+    if (observed[i] && choice.constant_pose[i]) ++num_constant;
+  }
+  if (gauge != BundleAdjuster::Options::Gauge::kMinimal || num_constant >= 2) {
+    return choice;
+  }
+  int anchor = -1;
+  for (int i = 0; i < num_images && anchor < 0; ++i) {
+    if (observed[i] && choice.constant_pose[i]) anchor = i;
+  }
+  for (int i = 0; i < num_images && anchor < 0; ++i) {
+    if (observed[i]) anchor = i;
+  }
+  if (anchor < 0) return choice;
+  choice.constant_pose[anchor] = true;
+  // Scaling the world about the anchor's centre a moves t_i by
+  // R_i (c_i - a) per unit of log-scale: hold the component it moves most.
+  const Eigen::Vector3d a = ProjectionCenter(problem.images[anchor].cam_from_world);
+  for (int i = 0; i < num_images; ++i) {
+    if (!observed[i] || choice.constant_pose[i]) continue;
+    const Rigid3d& pose = problem.images[i].cam_from_world;
+    const Eigen::Vector3d lever = pose.rotation * (ProjectionCenter(pose) - a);
+    if (lever.norm() <= 1e-12 * (1.0 + a.norm())) continue;
+    choice.scale_image = i;
+    lever.cwiseAbs().maxCoeff(&choice.scale_axis);
+    break;
+  }
+  return choice;
+}
+
+std::unique_ptr<ceres::LossFunction> MakeLoss(
+    const BundleAdjuster::Options& options) {
+  using Loss = BundleAdjuster::Options::Loss;
+  switch (options.loss) {
+    case Loss::kTrivial: return nullptr;
+    case Loss::kHuber:
+      return std::make_unique<ceres::HuberLoss>(options.loss_scale_px);
+    case Loss::kCauchy:
+      return std::make_unique<ceres::CauchyLoss>(options.loss_scale_px);
+  }
+  FLYSFM_CHECK(false);
+  return nullptr;
+}
+
+// Indices of a camera's parameters that stay constant under the options.
+std::vector<int> ConstantIntrinsics(const Camera& camera,
+                                    const BundleAdjuster::Options& options) {
+  std::vector<int> constant;
+  const int num_focal = camera.NumFocalParams();
+  for (int i = 0; i < camera.NumParams(); ++i) {
+    const bool refined = i < num_focal ? options.refine_focal_length
+                         : i < num_focal + 2 ? options.refine_principal_point
+                                             : options.refine_extra_params;
+    if (!refined) constant.push_back(i);
+  }
+  return constant;
+}
+
+// The information each weighted image's pose has from its own observations
+// in the reduced camera system (paper Eq. 5) at the start: the 6x6 diagonal
+// block S_ii = H_ii - sum_p W_ip V_p^+ W_ip^T, in the tangent coordinates of
+// the pose blocks, with robust-loss weights rho'(s). See docs/bundle.md.
+std::vector<Matrix6d> WeightedPoseInformation(
+    const BundleProblem& problem, const std::vector<AddedResidual>& residuals,
+    const std::vector<char>& weighted, const std::vector<char>& point_free,
+    const ceres::LossFunction* loss) {
+  const int num_points = static_cast<int>(problem.points.size());
+  std::vector<char> linked(num_points, 0);
+  for (const AddedResidual& residual : residuals) {
+    const BundleObservation& obs = problem.observations[residual.observation];
+    if (residual.pose_free && weighted[obs.image]) linked[obs.point] = 1;
+  }
+
+  std::vector<Matrix6d> information(problem.images.size(), Matrix6d::Zero());
+  std::vector<Eigen::Matrix3d> point_information(num_points,
+                                                 Eigen::Matrix3d::Zero());
+  struct Coupling {
+    int image;
+    int point;
+    Matrix6x3d w;
+  };
+  std::vector<Coupling> couplings;
+  const ceres::EigenQuaternionManifold quaternion_manifold;
+
+  Eigen::Vector2d r;
+  RowMatrix2x4d j_rotation;
+  RowMatrix2x3d j_translation;
+  RowMatrix2x3d j_point;
+  RowMatrix4x3d plus_jacobian;
+  for (const AddedResidual& residual : residuals) {
+    const BundleObservation& obs = problem.observations[residual.observation];
+    if (!linked[obs.point]) continue;
+    const bool pose_wanted = residual.pose_free && weighted[obs.image];
+    std::vector<double*> jacobians(residual.blocks.size(), nullptr);
+    if (residual.pose_free) {
+      if (pose_wanted) {
+        jacobians[0] = j_rotation.data();
+        jacobians[1] = j_translation.data();
+      }
+      jacobians[2] = j_point.data();
+    } else {
+      jacobians[0] = j_point.data();
+    }
+    if (!residual.cost->Evaluate(residual.blocks.data(), r.data(),
+                                 jacobians.data())) {
+      continue;
+    }
+    double weight = 1.0;
+    if (loss != nullptr) {
+      double rho[3];
+      loss->Evaluate(r.squaredNorm(), rho);
+      weight = rho[1];
+    }
+    if (point_free[obs.point]) {
+      point_information[obs.point] += weight * j_point.transpose() * j_point;
+    }
+    if (!pose_wanted) continue;
+    quaternion_manifold.PlusJacobian(residual.blocks[0], plus_jacobian.data());
+    Matrix2x6d j_pose;
+    j_pose << j_rotation * plus_jacobian, j_translation;
+    information[obs.image] += weight * j_pose.transpose() * j_pose;
+    if (point_free[obs.point]) {
+      couplings.push_back(
+          {obs.image, obs.point, weight * j_pose.transpose() * j_point});
+    }
+  }
+
+  std::vector<Eigen::Matrix3d> point_covariance(num_points);
+  for (int p = 0; p < num_points; ++p) {
+    if (!linked[p] || !point_free[p]) continue;
+    // Pseudo-inverse: a point seen once has a rank-2 information.
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(
+        point_information[p]);
+    const Eigen::Vector3d values = eigen.eigenvalues();
+    Eigen::Vector3d inverse = Eigen::Vector3d::Zero();
+    for (int k = 0; k < 3; ++k) {
+      if (values[k] > 1e-12 * values.maxCoeff()) inverse[k] = 1.0 / values[k];
+    }
+    point_covariance[p] =
+        eigen.eigenvectors() * inverse.asDiagonal() * eigen.eigenvectors().transpose();
+  }
+  for (const Coupling& c : couplings) {
+    information[c.image] -= c.w * point_covariance[c.point] * c.w.transpose();
+  }
+  return information;
+}
+
+// sqrt((p - 1) S): a 6x6 L with L^T L = (p - 1) S, S clamped to PSD.
+Matrix6d PriorSqrtInformation(const Matrix6d& information, double weight) {
+  const Eigen::SelfAdjointEigenSolver<Matrix6d> eigen(
+      0.5 * (information + information.transpose()));
+  const Eigen::Matrix<double, 6, 1> root =
+      eigen.eigenvalues().cwiseMax(0.0).cwiseSqrt() * std::sqrt(weight - 1.0);
+  return root.asDiagonal() * eigen.eigenvectors().transpose();
+}
+
+BundleAdjuster::Termination ToTermination(const ceres::Solver::Summary& summary) {
+  if (!summary.IsSolutionUsable()) return BundleAdjuster::Termination::kFailure;
+  switch (summary.termination_type) {
+    case ceres::CONVERGENCE:
+    case ceres::USER_SUCCESS: return BundleAdjuster::Termination::kConvergence;
+    case ceres::NO_CONVERGENCE: return BundleAdjuster::Termination::kNoConvergence;
+    default: return BundleAdjuster::Termination::kFailure;
+  }
+}
+
+const char* TerminationName(BundleAdjuster::Termination termination) {
+  switch (termination) {
+    case BundleAdjuster::Termination::kConvergence: return "convergence";
+    case BundleAdjuster::Termination::kNoConvergence: return "no convergence";
+    case BundleAdjuster::Termination::kFailure: return "failure";
+  }
+  return "?";
+}
+
+double MeanReprojectionError(const BundleProblem& problem,
+                             const std::vector<AddedResidual>& residuals) {
+  if (residuals.empty()) return 0.0;
+  double sum = 0.0;
+  for (const AddedResidual& residual : residuals) {
+    sum += ReprojectionError(problem, problem.observations[residual.observation]);
+  }
+  return sum / residuals.size();
+}
+
+}  // namespace
+
+bool BundleAdjuster::Options::Check() const {
+  return loss_scale_px > 0 && dense_schur_max_images >= 0 &&
+         sparse_schur_max_images >= dense_schur_max_images &&
+         max_num_iterations > 0 && max_solver_time_seconds > 0 &&
+         function_tolerance >= 0 && gradient_tolerance >= 0 &&
+         parameter_tolerance >= 0 && num_threads >= 1;
+}
+
+std::string BundleAdjuster::Summary::BriefReport() const {
+  std::ostringstream out;
+  out << "BA " << num_free_images << "/" << num_images << " images, "
+      << num_free_points << "/" << num_points << " points, " << num_residuals
+      << " residuals, " << num_pose_priors << " priors, " << linear_solver
+      << ": cost " << initial_cost << " -> " << final_cost << ", error "
+      << initial_mean_reprojection_error_px << " -> "
+      << final_mean_reprojection_error_px << " px, " << num_iterations
+      << " iterations, " << total_time_seconds << " s, "
+      << TerminationName(termination);
+  return out.str();
+}
+
+BundleAdjuster::BundleAdjuster(const Options& options) : options_(options) {
+  FLYSFM_CHECK(options_.Check());
+}
+
+BundleAdjuster::Summary BundleAdjuster::Solve(BundleProblem* problem) const {
+  const Clock::time_point start = Clock::now();
+  FLYSFM_CHECK(problem != nullptr && problem->Check());
+  const int num_images = static_cast<int>(problem->images.size());
+  const int num_points = static_cast<int>(problem->points.size());
+  const int num_cameras = static_cast<int>(problem->cameras.size());
+
+  std::vector<char> image_observed(num_images, 0);
+  std::vector<char> point_observed(num_points, 0);
+  for (const BundleObservation& obs : problem->observations) {
+    image_observed[obs.image] = 1;
+    point_observed[obs.point] = 1;
+  }
+  const GaugeChoice gauge = ChooseGauge(*problem, image_observed, options_.gauge);
+  std::vector<char> point_free(num_points, 0);
+  for (const BundleObservation& obs : problem->observations) {
+    if (!gauge.constant_pose[obs.image]) point_free[obs.point] = 1;
+  }
+  std::vector<std::vector<int>> constant_intrinsics(num_cameras);
+  std::vector<char> camera_free(num_cameras, 0);
+  for (int c = 0; c < num_cameras; ++c) {
+    constant_intrinsics[c] = ConstantIntrinsics(problem->cameras[c], options_);
+    camera_free[c] = constant_intrinsics[c].size() <
+                     problem->cameras[c].params.size();
+  }
+
+  ceres::Problem::Options problem_options;
+  problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  ceres::Problem ceres_problem(problem_options);
+  const std::unique_ptr<ceres::LossFunction> loss = MakeLoss(options_);
+
+  std::vector<AddedResidual> residuals;
+  std::vector<char> image_added(num_images, 0);
+  std::vector<char> camera_added(num_cameras, 0);
+  for (int i = 0; i < num_images; ++i) {
+    if (!gauge.constant_pose[i]) problem->images[i].cam_from_world.rotation.normalize();
+  }
+  for (int o = 0; o < static_cast<int>(problem->observations.size()); ++o) {
+    const BundleObservation& obs = problem->observations[o];
+    BundleImage& image = problem->images[obs.image];
+    const bool pose_free = !gauge.constant_pose[obs.image];
+    if (!pose_free && !point_free[obs.point] && !camera_free[image.camera]) continue;
+    Camera& camera = problem->cameras[image.camera];
+    AddedResidual residual;
+    residual.observation = o;
+    residual.pose_free = pose_free;
+    if (pose_free) {
+      residual.cost = CreateReprojectionCost(camera.model_id, obs.pixel);
+      residual.blocks = {image.cam_from_world.rotation.coeffs().data(),
+                         image.cam_from_world.translation.data(),
+                         problem->points[obs.point].data(), camera.params.data()};
+      image_added[obs.image] = 1;
+    } else {
+      residual.cost = CreateConstantPoseReprojectionCost(
+          camera.model_id, image.cam_from_world, obs.pixel);
+      residual.blocks = {problem->points[obs.point].data(), camera.params.data()};
+    }
+    camera_added[image.camera] = 1;
+    ceres_problem.AddResidualBlock(residual.cost, loss.get(), residual.blocks);
+    residuals.push_back(std::move(residual));
+  }
+
+  Summary summary;
+  summary.num_images = num_images;
+  summary.num_points = num_points;
+  summary.num_residuals = static_cast<int>(residuals.size());
+  summary.initial_mean_reprojection_error_px =
+      MeanReprojectionError(*problem, residuals);
+  if (residuals.empty()) {
+    summary.termination = Termination::kConvergence;
+    summary.message = "nothing to refine";
+    summary.final_mean_reprojection_error_px =
+        summary.initial_mean_reprojection_error_px;
+    summary.total_time_seconds = SecondsSince(start);
+    return summary;
+  }
+
+  ceres::EigenQuaternionManifold quaternion_manifold;
+  std::unique_ptr<ceres::SubsetManifold> scale_manifold;
+  std::vector<std::unique_ptr<ceres::SubsetManifold>> intrinsics_manifolds;
+  auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
+  for (int i = 0; i < num_images; ++i) {
+    if (!image_added[i]) continue;
+    ++summary.num_free_images;
+    Rigid3d& pose = problem->images[i].cam_from_world;
+    ceres_problem.SetManifold(pose.rotation.coeffs().data(),
+                              &quaternion_manifold);
+    if (i == gauge.scale_image) {
+      scale_manifold = std::make_unique<ceres::SubsetManifold>(
+          3, std::vector<int>{gauge.scale_axis});
+      ceres_problem.SetManifold(pose.translation.data(), scale_manifold.get());
+    }
+    ordering->AddElementToGroup(pose.rotation.coeffs().data(), 1);
+    ordering->AddElementToGroup(pose.translation.data(), 1);
+  }
+  for (int p = 0; p < num_points; ++p) {
+    if (!point_observed[p]) continue;
+    double* point = problem->points[p].data();
+    if (!ceres_problem.HasParameterBlock(point)) continue;
+    if (point_free[p]) {
+      ++summary.num_free_points;
+      ordering->AddElementToGroup(point, 0);
+    } else {
+      ceres_problem.SetParameterBlockConstant(point);
+      ordering->AddElementToGroup(point, 1);
+    }
+  }
+  for (int c = 0; c < num_cameras; ++c) {
+    if (!camera_added[c]) continue;
+    double* params = problem->cameras[c].params.data();
+    ordering->AddElementToGroup(params, 1);
+    if (!camera_free[c]) {
+      ceres_problem.SetParameterBlockConstant(params);
+    } else if (!constant_intrinsics[c].empty()) {
+      intrinsics_manifolds.push_back(std::make_unique<ceres::SubsetManifold>(
+          problem->cameras[c].NumParams(), constant_intrinsics[c]));
+      ceres_problem.SetManifold(params, intrinsics_manifolds.back().get());
+    }
+  }
+
+  std::vector<char> weighted(num_images, 0);
+  bool any_weighted = false;
+  for (int i = 0; i < num_images; ++i) {
+    weighted[i] = image_added[i] && problem->images[i].weight > 1.0;
+    any_weighted = any_weighted || weighted[i];
+  }
+  if (any_weighted) {
+    const std::vector<Matrix6d> information = WeightedPoseInformation(
+        *problem, residuals, weighted, point_free, loss.get());
+    for (int i = 0; i < num_images; ++i) {
+      if (!weighted[i]) continue;
+      Rigid3d& pose = problem->images[i].cam_from_world;
+      ceres_problem.AddResidualBlock(
+          CreatePosePriorCost(pose, PriorSqrtInformation(
+                                        information[i], problem->images[i].weight)),
+          nullptr, pose.rotation.coeffs().data(), pose.translation.data());
+      ++summary.num_pose_priors;
+    }
+  }
+
+  ceres::Solver::Options solver_options;
+  const int num_free_images = summary.num_free_images;
+  if (summary.num_free_points == 0) {
+    solver_options.linear_solver_type =
+        num_free_images <= options_.dense_schur_max_images
+            ? ceres::DENSE_QR
+            : ceres::SPARSE_NORMAL_CHOLESKY;
+  } else {
+    solver_options.linear_solver_ordering = ordering;
+    if (num_free_images <= options_.dense_schur_max_images) {
+      solver_options.linear_solver_type = ceres::DENSE_SCHUR;
+    } else if (num_free_images <= options_.sparse_schur_max_images) {
+      solver_options.linear_solver_type = ceres::SPARSE_SCHUR;
+    } else {
+      solver_options.linear_solver_type = ceres::ITERATIVE_SCHUR;
+      solver_options.preconditioner_type = ceres::SCHUR_JACOBI;
+    }
+  }
+  solver_options.sparse_linear_algebra_library_type = ceres::SUITE_SPARSE;
+  solver_options.max_num_iterations = options_.max_num_iterations;
+  solver_options.max_solver_time_in_seconds = options_.max_solver_time_seconds;
+  solver_options.function_tolerance = options_.function_tolerance;
+  solver_options.gradient_tolerance = options_.gradient_tolerance;
+  solver_options.parameter_tolerance = options_.parameter_tolerance;
+  solver_options.num_threads = options_.num_threads;
+  solver_options.logging_type = ceres::SILENT;
+  solver_options.minimizer_progress_to_stdout = false;
+
+  ceres::Solver::Summary ceres_summary;
+  ceres::Solve(solver_options, &ceres_problem, &ceres_summary);
+
+  for (int i = 0; i < num_images; ++i) {
+    if (image_added[i]) problem->images[i].cam_from_world.rotation.normalize();
+  }
+  summary.linear_solver =
+      ceres::LinearSolverTypeToString(solver_options.linear_solver_type);
+  summary.initial_cost = ceres_summary.initial_cost;
+  summary.final_cost = ceres_summary.final_cost;
+  summary.final_mean_reprojection_error_px =
+      MeanReprojectionError(*problem, residuals);
+  // Ceres lists the evaluation at the start as iteration 0.
+  summary.num_iterations =
+      std::max(0, static_cast<int>(ceres_summary.iterations.size()) - 1);
+  summary.solver_time_seconds = ceres_summary.total_time_in_seconds;
+  summary.termination = ToTermination(ceres_summary);
+  summary.message = ceres_summary.message;
+  summary.total_time_seconds = SecondsSince(start);
+  return summary;
+}
+
+}  // namespace flysfm

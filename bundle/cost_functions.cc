@@ -1,0 +1,199 @@
+#include "bundle/cost_functions.h"
+
+#include <ceres/autodiff_cost_function.h>
+#include <ceres/jet.h>
+#include <ceres/manifold.h>
+#include <ceres/rotation.h>
+#include <ceres/sized_cost_function.h>
+
+#include <Eigen/Geometry>
+
+namespace flysfm {
+namespace {
+
+// Projection of a camera-frame point and its derivatives with respect to that
+// point and the camera parameters: automatic differentiation of the model's
+// templated ImgFromCam on small Jets (3 + #params), so every model shares it.
+template <typename Model>
+struct Projection {
+  static constexpr int kNumParams = Model::kNumParams;
+  Eigen::Vector2d pixel;
+  Eigen::Matrix<double, 2, 3, Eigen::RowMajor> d_point;
+  Eigen::Matrix<double, 2, kNumParams, Eigen::RowMajor> d_params;
+
+  void Evaluate(const double* params, const Eigen::Vector3d& in_cam,
+                bool derivatives) {
+    if (!derivatives) {
+      Model::ImgFromCam(params, in_cam.x(), in_cam.y(), in_cam.z(), &pixel.x(),
+                        &pixel.y());
+      return;
+    }
+    using Jet = ceres::Jet<double, 3 + kNumParams>;
+    Jet jet_params[kNumParams];
+    for (int i = 0; i < kNumParams; ++i) jet_params[i] = Jet(params[i], 3 + i);
+    Jet x, y;
+    Model::ImgFromCam(jet_params, Jet(in_cam.x(), 0), Jet(in_cam.y(), 1),
+                      Jet(in_cam.z(), 2), &x, &y);
+    pixel = Eigen::Vector2d(x.a, y.a);
+    d_point.row(0) = x.v.template head<3>();
+    d_point.row(1) = y.v.template head<3>();
+    d_params.row(0) = x.v.template tail<kNumParams>();
+    d_params.row(1) = y.v.template tail<kNumParams>();
+  }
+};
+
+// Writes the derivatives of the residual with respect to a point that enters
+// the camera frame as R X, and to the camera parameters.
+template <typename Model>
+void PointAndParamJacobians(const Projection<Model>& projection,
+                            const Eigen::Matrix3d& rotation, double* d_point,
+                            double* d_params) {
+  if (d_point != nullptr) {
+    Eigen::Map<Eigen::Matrix<double, 2, 3, Eigen::RowMajor>> jacobian(d_point);
+    jacobian = projection.d_point * rotation;
+  }
+  if (d_params != nullptr) {
+    Eigen::Map<Eigen::Matrix<double, 2, Model::kNumParams, Eigen::RowMajor>>
+        jacobian(d_params);
+    jacobian = projection.d_params;
+  }
+}
+
+// Residual and Jacobians in closed form for the pose and point, the model's
+// projection differentiated automatically (Projection above): about three
+// times faster than differentiating the whole chain with Jets of 10 + #params.
+//
+// The rotation Jacobian: EigenQuaternionManifold moves q to Exp(d) q, a
+// rotation by 2d, so the tangent Jacobian of R X is -2 [R X]x. Ceres wants the
+// Jacobian in the ambient quaternion coordinates and multiplies it by the
+// manifold's PlusJacobian P (4x3, orthonormal columns for a unit q); passing
+// J_tangent P^T gives back exactly J_tangent.
+template <typename Model>
+class ReprojectionCost
+    : public ceres::SizedCostFunction<2, 4, 3, 3, Model::kNumParams> {
+ public:
+  explicit ReprojectionCost(const Eigen::Vector2d& pixel) : pixel_(pixel) {}
+
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override {
+    const Eigen::Map<const Eigen::Quaterniond> rotation(parameters[0]);
+    const Eigen::Matrix3d r = rotation.toRotationMatrix();
+    const Eigen::Vector3d rotated =
+        r * Eigen::Map<const Eigen::Vector3d>(parameters[2]);
+    const Eigen::Vector3d in_cam =
+        rotated + Eigen::Map<const Eigen::Vector3d>(parameters[1]);
+    Projection<Model> projection;
+    projection.Evaluate(parameters[3], in_cam, jacobians != nullptr);
+    residuals[0] = projection.pixel.x() - pixel_.x();
+    residuals[1] = projection.pixel.y() - pixel_.y();
+    if (jacobians == nullptr) return true;
+    if (jacobians[0] != nullptr) {
+      Eigen::Matrix3d minus_2_skew;
+      minus_2_skew << 0, 2 * rotated.z(), -2 * rotated.y(),  //
+          -2 * rotated.z(), 0, 2 * rotated.x(),              //
+          2 * rotated.y(), -2 * rotated.x(), 0;
+      Eigen::Matrix<double, 4, 3, Eigen::RowMajor> plus_jacobian;
+      ceres::EigenQuaternionManifold().PlusJacobian(parameters[0],
+                                                    plus_jacobian.data());
+      Eigen::Map<Eigen::Matrix<double, 2, 4, Eigen::RowMajor>> d_rotation(
+          jacobians[0]);
+      d_rotation = projection.d_point * minus_2_skew * plus_jacobian.transpose();
+    }
+    if (jacobians[1] != nullptr) {
+      Eigen::Map<Eigen::Matrix<double, 2, 3, Eigen::RowMajor>> d_translation(
+          jacobians[1]);
+      d_translation = projection.d_point;
+    }
+    PointAndParamJacobians(projection, r, jacobians[2], jacobians[3]);
+    return true;
+  }
+
+ private:
+  Eigen::Vector2d pixel_;
+};
+
+template <typename Model>
+class ConstantPoseReprojectionCost
+    : public ceres::SizedCostFunction<2, 3, Model::kNumParams> {
+ public:
+  ConstantPoseReprojectionCost(const Rigid3d& cam_from_world,
+                               const Eigen::Vector2d& pixel)
+      : rotation_(cam_from_world.rotation.toRotationMatrix()),
+        translation_(cam_from_world.translation),
+        pixel_(pixel) {}
+
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override {
+    const Eigen::Vector3d in_cam =
+        rotation_ * Eigen::Map<const Eigen::Vector3d>(parameters[0]) +
+        translation_;
+    Projection<Model> projection;
+    projection.Evaluate(parameters[1], in_cam, jacobians != nullptr);
+    residuals[0] = projection.pixel.x() - pixel_.x();
+    residuals[1] = projection.pixel.y() - pixel_.y();
+    if (jacobians != nullptr) {
+      PointAndParamJacobians(projection, rotation_, jacobians[0], jacobians[1]);
+    }
+    return true;
+  }
+
+ private:
+  Eigen::Matrix3d rotation_;
+  Eigen::Vector3d translation_;
+  Eigen::Vector2d pixel_;
+};
+
+struct PosePriorCost {
+  PosePriorCost(const Rigid3d& prior, const Matrix6d& sqrt_information)
+      : prior_rotation_inverse(prior.rotation.conjugate()),
+        prior_translation(prior.translation),
+        sqrt_information(sqrt_information) {}
+
+  template <typename T>
+  bool operator()(const T* rotation, const T* translation, T* residuals) const {
+    const Eigen::Map<const Eigen::Quaternion<T>> q(rotation);
+    const Eigen::Quaternion<T> delta = q * prior_rotation_inverse.cast<T>();
+    const T delta_wxyz[4] = {delta.w(), delta.x(), delta.y(), delta.z()};
+    T rotation_vector[3];
+    ceres::QuaternionToAngleAxis(delta_wxyz, rotation_vector);
+    Eigen::Matrix<T, 6, 1> error;
+    for (int i = 0; i < 3; ++i) {
+      error[i] = T(0.5) * rotation_vector[i];
+      error[3 + i] = translation[i] - T(prior_translation[i]);
+    }
+    Eigen::Map<Eigen::Matrix<T, 6, 1>> weighted_error(residuals);
+    weighted_error = sqrt_information.cast<T>() * error;
+    return true;
+  }
+
+  Eigen::Quaterniond prior_rotation_inverse;
+  Eigen::Vector3d prior_translation;
+  Matrix6d sqrt_information;
+};
+
+}  // namespace
+
+ceres::CostFunction* CreateReprojectionCost(CameraModelId model_id,
+                                            const Eigen::Vector2d& pixel) {
+  return VisitCameraModel(model_id, [&](auto model) -> ceres::CostFunction* {
+    using Model = decltype(model);
+    return new ReprojectionCost<Model>(pixel);
+  });
+}
+
+ceres::CostFunction* CreateConstantPoseReprojectionCost(
+    CameraModelId model_id, const Rigid3d& cam_from_world,
+    const Eigen::Vector2d& pixel) {
+  return VisitCameraModel(model_id, [&](auto model) -> ceres::CostFunction* {
+    using Model = decltype(model);
+    return new ConstantPoseReprojectionCost<Model>(cam_from_world, pixel);
+  });
+}
+
+ceres::CostFunction* CreatePosePriorCost(const Rigid3d& prior_cam_from_world,
+                                         const Matrix6d& sqrt_information) {
+  return new ceres::AutoDiffCostFunction<PosePriorCost, 6, 4, 3>(
+      new PosePriorCost(prior_cam_from_world, sqrt_information));
+}
+
+}  // namespace flysfm

@@ -1,0 +1,373 @@
+#include "bundle/bundle_adjuster.h"
+
+#include <cmath>
+#include <memory>
+#include <random>
+#include <vector>
+
+// Ceres pulls in glog, whose CHECK would silently replace Catch's: include it
+// first and drop glog's macro before Catch defines its own.
+#include <ceres/ceres.h>
+#undef CHECK
+#include <catch2/catch.hpp>
+
+#include "bundle/cost_functions.h"
+#include "tests/bundle/synthetic_problem.h"
+#include "tests/testing/synthetic.h"
+
+namespace flysfm {
+namespace {
+
+using testing::BundleProblemFromScene;
+using testing::PerturbPose;
+using testing::RmsReprojectionError;
+
+constexpr double kNoisePx = 0.5;
+
+// The reference scene: 30 cameras on an arc around 2 000 points.
+testing::SyntheticScene ArcScene(double noise_px, std::uint32_t seed,
+                                 const Camera& camera = Camera::FromFocal(
+                                     CameraModelId::kPinhole, 500, 640, 480)) {
+  testing::SyntheticSceneOptions options;
+  options.num_images = 30;
+  options.num_points = 2000;
+  options.noise_px = noise_px;
+  options.camera = camera;
+  options.seed = seed;
+  return testing::MakeSyntheticScene(options);
+}
+
+// Starting point of a solve: every pose from `first_free` on rotated by 1
+// degree and moved by 0.1 (the scene is 2 across, 5 away), every point moved
+// by up to 0.05 per axis.
+void Perturb(std::uint32_t seed, int first_free, BundleProblem* problem) {
+  std::mt19937 rng(seed);
+  for (size_t i = first_free; i < problem->images.size(); ++i) {
+    PerturbPose(rng, 1.0, 0.1, &problem->images[i].cam_from_world);
+  }
+  std::uniform_real_distribution<double> shift(-0.05, 0.05);
+  for (Eigen::Vector3d& point : problem->points) {
+    point += Eigen::Vector3d(shift(rng), shift(rng), shift(rng));
+  }
+}
+
+struct PoseErrors {
+  double rotation_rms_rad = 0;
+  double translation_rms = 0;
+};
+
+PoseErrors ComparePoses(const BundleProblem& problem,
+                        const testing::SyntheticScene& scene, int first) {
+  PoseErrors errors;
+  const int n = static_cast<int>(scene.cams_from_world.size()) - first;
+  for (size_t i = first; i < scene.cams_from_world.size(); ++i) {
+    const Rigid3d& estimate = problem.images[i].cam_from_world;
+    const Rigid3d& truth = scene.cams_from_world[i];
+    const double angle = estimate.rotation.angularDistance(truth.rotation);
+    errors.rotation_rms_rad += angle * angle / n;
+    errors.translation_rms +=
+        (estimate.translation - truth.translation).squaredNorm() / n;
+  }
+  errors.rotation_rms_rad = std::sqrt(errors.rotation_rms_rad);
+  errors.translation_rms = std::sqrt(errors.translation_rms);
+  return errors;
+}
+
+// The Cramér-Rao bound of the poses from `first` on, with the poses before it
+// held: the RMS errors an efficient estimator reaches under pixel noise of
+// `sigma` per axis, from the inverse Fisher information sigma^2 (J^T J)^-1 at
+// the ground truth. Rotation errors are angles: twice the tangent of
+// ceres::EigenQuaternionManifold.
+PoseErrors CramerRaoBound(const testing::SyntheticScene& scene, int first,
+                          double sigma) {
+  BundleProblem truth = BundleProblemFromScene(scene);
+  ceres::Problem::Options problem_options;
+  problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  ceres::Problem problem(problem_options);
+  ceres::EigenQuaternionManifold quaternion_manifold;
+  double* params = truth.cameras[0].params.data();
+  for (const BundleObservation& obs : truth.observations) {
+    Rigid3d& pose = truth.images[obs.image].cam_from_world;
+    double* point = truth.points[obs.point].data();
+    if (obs.image < first) {
+      problem.AddResidualBlock(CreateConstantPoseReprojectionCost(
+                                   scene.camera.model_id, pose, obs.pixel),
+                               nullptr, point, params);
+    } else {
+      problem.AddResidualBlock(
+          CreateReprojectionCost(scene.camera.model_id, obs.pixel), nullptr,
+          pose.rotation.coeffs().data(), pose.translation.data(), point, params);
+      problem.SetManifold(pose.rotation.coeffs().data(), &quaternion_manifold);
+    }
+  }
+  problem.SetParameterBlockConstant(params);
+
+  ceres::Covariance::Options options;
+  options.algorithm_type = ceres::SPARSE_QR;
+  ceres::Covariance covariance(options);
+  std::vector<std::pair<const double*, const double*>> blocks;
+  for (size_t i = first; i < truth.images.size(); ++i) {
+    const Rigid3d& pose = truth.images[i].cam_from_world;
+    blocks.emplace_back(pose.rotation.coeffs().data(), pose.rotation.coeffs().data());
+    blocks.emplace_back(pose.translation.data(), pose.translation.data());
+  }
+  REQUIRE(covariance.Compute(blocks, &problem));
+
+  PoseErrors bound;
+  const int n = static_cast<int>(truth.images.size()) - first;
+  for (size_t i = first; i < truth.images.size(); ++i) {
+    const Rigid3d& pose = truth.images[i].cam_from_world;
+    Eigen::Matrix3d rotation, translation;
+    covariance.GetCovarianceBlockInTangentSpace(pose.rotation.coeffs().data(),
+                                               pose.rotation.coeffs().data(),
+                                               rotation.data());
+    covariance.GetCovarianceBlock(pose.translation.data(), pose.translation.data(),
+                                  translation.data());
+    bound.rotation_rms_rad += 4 * rotation.trace() / n;
+    bound.translation_rms += translation.trace() / n;
+  }
+  bound.rotation_rms_rad = sigma * std::sqrt(bound.rotation_rms_rad);
+  bound.translation_rms = sigma * std::sqrt(bound.translation_rms);
+  return bound;
+}
+
+// Images 0 and 1 stay at the truth and hold the gauge, so the other poses are
+// compared with the truth directly.
+BundleProblem PerturbedArcProblem(const testing::SyntheticScene& scene) {
+  BundleProblem problem = BundleProblemFromScene(scene);
+  problem.images[0].constant_pose = true;
+  problem.images[1].constant_pose = true;
+  Perturb(17, 2, &problem);
+  return problem;
+}
+
+TEST_CASE("Global BA reaches the noise floor and the Cramer-Rao pose accuracy") {
+  const testing::SyntheticScene scene = ArcScene(kNoisePx, 1);
+  BundleProblem problem = PerturbedArcProblem(scene);
+  REQUIRE(RmsReprojectionError(problem) > 10 * kNoisePx);
+
+  const BundleAdjuster::Summary summary = BundleAdjuster({}).Solve(&problem);
+  INFO(summary.BriefReport());
+  REQUIRE(summary.termination == BundleAdjuster::Termination::kConvergence);
+  CHECK(summary.num_free_images == 28);
+  CHECK(summary.final_cost < summary.initial_cost);
+  // Residual RMS per axis tends to the noise sigma (less the ~5 % of degrees
+  // of freedom the fit absorbs).
+  CHECK(std::abs(RmsReprojectionError(problem) - kNoisePx) < 0.1 * kNoisePx);
+  // Mean of a 2D Gaussian residual's norm: sigma sqrt(pi/2).
+  CHECK(summary.final_mean_reprojection_error_px ==
+        Approx(kNoisePx * std::sqrt(M_PI / 2)).epsilon(0.1));
+
+  // RMS over 28 poses of an efficient estimate is within a few percent of the
+  // bound; twice the bound leaves room for the Huber loss' small loss of
+  // efficiency, and a solver stopping short would miss it by far.
+  const PoseErrors errors = ComparePoses(problem, scene, 2);
+  const PoseErrors bound = CramerRaoBound(scene, 2, kNoisePx);
+  INFO("rotation " << errors.rotation_rms_rad << " rad, bound "
+                   << bound.rotation_rms_rad << "; translation "
+                   << errors.translation_rms << ", bound " << bound.translation_rms);
+  CHECK(errors.rotation_rms_rad < 2 * bound.rotation_rms_rad);
+  CHECK(errors.translation_rms < 2 * bound.translation_rms);
+}
+
+TEST_CASE("The robust loss keeps 5% gross outliers from spoiling the poses") {
+  const testing::SyntheticScene scene = ArcScene(kNoisePx, 2);
+  BundleProblem clean = PerturbedArcProblem(scene);
+  BundleProblem dirty = clean;
+  std::mt19937 rng(3);
+  std::bernoulli_distribution is_outlier(0.05);
+  std::uniform_real_distribution<double> gross(10.0, 100.0);
+  int num_outliers = 0;
+  for (BundleObservation& obs : dirty.observations) {
+    if (!is_outlier(rng)) continue;
+    obs.pixel += gross(rng) * testing::RandomUnitVector(rng).head<2>().normalized();
+    ++num_outliers;
+  }
+  REQUIRE(num_outliers > 0.04 * dirty.observations.size());
+
+  const BundleAdjuster adjuster({});
+  REQUIRE(adjuster.Solve(&clean).IsSolutionUsable());
+  REQUIRE(adjuster.Solve(&dirty).IsSolutionUsable());
+  const PoseErrors clean_errors = ComparePoses(clean, scene, 2);
+  const PoseErrors dirty_errors = ComparePoses(dirty, scene, 2);
+  INFO("clean " << clean_errors.rotation_rms_rad << " rad, "
+                << clean_errors.translation_rms << "; with outliers "
+                << dirty_errors.rotation_rms_rad << " rad, "
+                << dirty_errors.translation_rms);
+  CHECK(dirty_errors.rotation_rms_rad < 2 * clean_errors.rotation_rms_rad);
+  CHECK(dirty_errors.translation_rms < 2 * clean_errors.translation_rms);
+}
+
+TEST_CASE("A focal length 5% off is recovered when refined, and only it") {
+  Camera camera = Camera::FromFocal(CameraModelId::kSimpleRadial, 500, 640, 480);
+  camera.params[3] = -0.05;
+  const testing::SyntheticScene scene = ArcScene(kNoisePx, 4, camera);
+  BundleProblem problem = PerturbedArcProblem(scene);
+  problem.cameras[0].params[0] *= 1.05;
+  const std::vector<double> start = problem.cameras[0].params;
+
+  BundleAdjuster::Options options;
+  SECTION("refined") {
+    options.refine_focal_length = true;
+    REQUIRE(BundleAdjuster(options).Solve(&problem).IsSolutionUsable());
+    CHECK(std::abs(problem.cameras[0].params[0] / camera.params[0] - 1) < 0.005);
+  }
+  SECTION("held") {
+    REQUIRE(BundleAdjuster(options).Solve(&problem).IsSolutionUsable());
+    CHECK(problem.cameras[0].params[0] == start[0]);
+  }
+  // The principal point and distortion are held in both cases.
+  for (int i = 1; i < 4; ++i) CHECK(problem.cameras[0].params[i] == start[i]);
+}
+
+TEST_CASE("Every camera model converges to the exact noise-free solution") {
+  const std::vector<std::string> models = {
+      "SIMPLE_PINHOLE 500,320,240",
+      "PINHOLE 500,505,320,240",
+      "SIMPLE_RADIAL 500,320,240,-0.05",
+      "RADIAL 500,320,240,-0.05,0.01",
+      "OPENCV 500,505,320,240,-0.05,0.01,0.001,-0.001",
+      "FULL_OPENCV 500,505,320,240,-0.05,0.01,0.001,-0.001,0.001,0.01,0,0"};
+  for (const std::string& model : models) {
+    testing::SyntheticSceneOptions scene_options;
+    scene_options.num_images = 8;
+    scene_options.num_points = 200;
+    scene_options.camera = Camera::FromString(model, 640, 480);
+    const testing::SyntheticScene scene = testing::MakeSyntheticScene(scene_options);
+    BundleProblem problem = PerturbedArcProblem(scene);
+    BundleAdjuster::Options options;
+    options.function_tolerance = 0;
+    options.parameter_tolerance = 1e-12;
+    const BundleAdjuster::Summary summary = BundleAdjuster(options).Solve(&problem);
+    INFO(model << ": " << summary.BriefReport());
+    CHECK(summary.IsSolutionUsable());
+    CHECK(summary.final_mean_reprojection_error_px < 1e-6);
+    const PoseErrors errors = ComparePoses(problem, scene, 2);
+    CHECK(errors.rotation_rms_rad < 1e-8);
+    CHECK(errors.translation_rms < 1e-8);
+  }
+}
+
+TEST_CASE("The minimal gauge holds the first pose and one translation axis") {
+  testing::SyntheticSceneOptions scene_options;
+  scene_options.num_images = 10;
+  scene_options.num_points = 300;
+  const testing::SyntheticScene scene = testing::MakeSyntheticScene(scene_options);
+  BundleProblem problem = BundleProblemFromScene(scene);
+  Perturb(5, 1, &problem);
+  const Rigid3d second = problem.images[1].cam_from_world;
+  BundleAdjuster::Options options;
+  options.function_tolerance = 0;
+  options.parameter_tolerance = 1e-12;
+  REQUIRE(BundleAdjuster(options).Solve(&problem).IsSolutionUsable());
+
+  const Rigid3d& first = problem.images[0].cam_from_world;
+  CHECK(first.rotation.coeffs() == scene.cams_from_world[0].rotation.coeffs());
+  CHECK(first.translation == scene.cams_from_world[0].translation);
+  // The held axis is the one scaling about the first camera moves most.
+  Eigen::Index axis;
+  (second.rotation * (ProjectionCenter(second) - ProjectionCenter(first)))
+      .cwiseAbs()
+      .maxCoeff(&axis);
+  CHECK(problem.images[1].cam_from_world.translation[axis] == second.translation[axis]);
+  // Noise-free: the solution is the truth scaled about the first camera so
+  // that the held component keeps its perturbed value; it reprojects exactly.
+  CHECK(RmsReprojectionError(problem) < 1e-6);
+}
+
+TEST_CASE("Dense, sparse and iterative Schur reach the same minimum") {
+  testing::SyntheticSceneOptions scene_options;
+  scene_options.num_images = 12;
+  scene_options.num_points = 300;
+  scene_options.noise_px = kNoisePx;
+  const testing::SyntheticScene scene = testing::MakeSyntheticScene(scene_options);
+  const BundleProblem start = PerturbedArcProblem(scene);
+
+  struct Case {
+    int dense_max;
+    int sparse_max;
+    const char* solver;
+  };
+  std::vector<BundleProblem> solutions;
+  for (const Case& c : {Case{50, 1000, "DENSE_SCHUR"}, Case{5, 1000, "SPARSE_SCHUR"},
+                        Case{2, 5, "ITERATIVE_SCHUR"}}) {
+    BundleAdjuster::Options options;
+    options.dense_schur_max_images = c.dense_max;
+    options.sparse_schur_max_images = c.sparse_max;
+    options.function_tolerance = 1e-12;
+    BundleProblem problem = start;
+    const BundleAdjuster::Summary summary = BundleAdjuster(options).Solve(&problem);
+    CHECK(summary.linear_solver == c.solver);
+    CHECK(summary.IsSolutionUsable());
+    solutions.push_back(problem);
+  }
+  for (size_t s = 1; s < solutions.size(); ++s) {
+    for (size_t i = 0; i < start.images.size(); ++i) {
+      const Rigid3d& a = solutions[0].images[i].cam_from_world;
+      const Rigid3d& b = solutions[s].images[i].cam_from_world;
+      CHECK(a.rotation.angularDistance(b.rotation) < 1e-7);
+      CHECK((a.translation - b.translation).norm() < 1e-6);
+    }
+  }
+}
+
+TEST_CASE("Points seen only by constant images stay constant") {
+  testing::SyntheticSceneOptions scene_options;
+  scene_options.num_images = 6;
+  scene_options.num_points = 100;
+  scene_options.noise_px = kNoisePx;
+  const testing::SyntheticScene scene = testing::MakeSyntheticScene(scene_options);
+  BundleProblem problem = BundleProblemFromScene(scene);
+  // Point 0 loses its observations in the free images 3..5.
+  std::vector<BundleObservation> kept;
+  for (const BundleObservation& obs : problem.observations) {
+    if (obs.point != 0 || obs.image < 3) kept.push_back(obs);
+  }
+  problem.observations = kept;
+  for (int i = 0; i < 3; ++i) problem.images[i].constant_pose = true;
+  Perturb(6, 3, &problem);
+  const BundleProblem before = problem;
+
+  const BundleAdjuster::Summary summary = BundleAdjuster({}).Solve(&problem);
+  REQUIRE(summary.IsSolutionUsable());
+  CHECK(summary.num_free_points == 99);
+  CHECK(problem.points[0] == before.points[0]);
+  CHECK(problem.points[1] != before.points[1]);
+  for (int i = 0; i < 3; ++i) {
+    CHECK(problem.images[i].cam_from_world.translation ==
+          before.images[i].cam_from_world.translation);
+  }
+}
+
+TEST_CASE("An iteration limit ends the solve early with a usable result") {
+  testing::SyntheticSceneOptions scene_options;
+  scene_options.num_images = 8;
+  scene_options.num_points = 200;
+  const testing::SyntheticScene scene = testing::MakeSyntheticScene(scene_options);
+  BundleProblem problem = PerturbedArcProblem(scene);
+  BundleAdjuster::Options options;
+  options.max_num_iterations = 1;
+  const BundleAdjuster::Summary summary = BundleAdjuster(options).Solve(&problem);
+  CHECK(summary.termination == BundleAdjuster::Termination::kNoConvergence);
+  CHECK(summary.IsSolutionUsable());
+  CHECK(summary.num_iterations == 1);
+  CHECK(summary.final_cost < summary.initial_cost);
+  CHECK(summary.final_mean_reprojection_error_px <
+        summary.initial_mean_reprojection_error_px);
+}
+
+TEST_CASE("Options are checked") {
+  BundleAdjuster::Options options;
+  CHECK(options.Check());
+  options.loss_scale_px = 0;
+  CHECK_FALSE(options.Check());
+  options = {};
+  options.sparse_schur_max_images = options.dense_schur_max_images - 1;
+  CHECK_FALSE(options.Check());
+  options = {};
+  options.num_threads = 0;
+  CHECK_FALSE(options.Check());
+}
+
+}  // namespace
+}  // namespace flysfm
