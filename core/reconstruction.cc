@@ -36,6 +36,12 @@ image_t Reconstruction::AddImage(const std::string& name, camera_t camera_id,
   return id;
 }
 
+point2D_t Reconstruction::AddPoint2D(image_t image_id, const Eigen::Vector2d& xy) {
+  Image& image = images_.at(image_id);
+  image.points2D.push_back({xy, kInvalidPoint3DId});
+  return point2D_t(image.points2D.size() - 1);
+}
+
 void Reconstruction::RegisterImage(image_t image_id, const Rigid3d& cam_from_world) {
   Image& image = images_.at(image_id);
   if (!image.IsRegistered()) registered_.push_back(image_id);

@@ -27,6 +27,9 @@ class Reconstruction {
   image_t AddImage(const std::string& name, camera_t camera_id,
                    const std::vector<Eigen::Vector2d>& keypoints,
                    image_t image_id = kInvalidImageId);
+  // Appends a keypoint found after the image was added (LSM densification
+  // finds observations where SIFT found none). Returns its index.
+  point2D_t AddPoint2D(image_t image_id, const Eigen::Vector2d& xy);
   void RegisterImage(image_t image_id, const Rigid3d& cam_from_world);
   // Removes the pose and every observation the image has.
   void DeRegisterImage(image_t image_id);

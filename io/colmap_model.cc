@@ -95,6 +95,21 @@ void CheckObservationsAgree(
   }
 }
 
+// We place the centre of the top-left pixel at (0, 0), as OpenCV, LSM and the
+// TUM calibration do; COLMAP places it at (0.5, 0.5). Keypoints and the
+// principal point shift together, so reprojection errors are unchanged.
+constexpr double kColmapPixelShift = 0.5;
+
+Camera ToColmapConvention(Camera camera, double shift = kColmapPixelShift) {
+  camera.params[camera.NumFocalParams()] += shift;
+  camera.params[camera.NumFocalParams() + 1] += shift;
+  return camera;
+}
+
+Camera FromColmapConvention(const Camera& camera) {
+  return ToColmapConvention(camera, -kColmapPixelShift);
+}
+
 Camera CameraFromModelId(int model_id, int width, int height, const fs::path& path) {
   Camera camera;
   camera.model_id = static_cast<CameraModelId>(model_id);
@@ -124,7 +139,8 @@ void WriteColmapText(const Reconstruction& reconstruction, const fs::path& dir) 
            "#   CAMERA_ID, MODEL, WIDTH, HEIGHT, PARAMS[]\n"
         << "# Number of cameras: " << reconstruction.cameras().size() << "\n"
         << std::setprecision(kPrecision);
-    for (const auto& [id, camera] : reconstruction.cameras()) {
+    for (const auto& [id, our_camera] : reconstruction.cameras()) {
+      const Camera camera = ToColmapConvention(our_camera);
       out << id << ' ' << camera.ModelName() << ' ' << camera.width << ' '
           << camera.height;
       for (const double p : camera.params) out << ' ' << p;
@@ -153,7 +169,8 @@ void WriteColmapText(const Reconstruction& reconstruction, const fs::path& dir) 
           << '\n';
       for (std::size_t i = 0; i < image.points2D.size(); ++i) {
         const Point2D& p = image.points2D[i];
-        out << (i ? " " : "") << p.xy.x() << ' ' << p.xy.y() << ' ';
+        out << (i ? " " : "") << p.xy.x() + kColmapPixelShift << ' '
+            << p.xy.y() + kColmapPixelShift << ' ';
         if (p.HasPoint3D()) {
           out << p.point3D_id;
         } else {
@@ -189,7 +206,8 @@ void WriteColmapBinary(const Reconstruction& reconstruction, const fs::path& dir
       dir / "cameras.bin",
       [&](std::ostream& out) {
         WriteBinary<std::uint64_t>(out, reconstruction.cameras().size());
-        for (const auto& [id, camera] : reconstruction.cameras()) {
+        for (const auto& [id, our_camera] : reconstruction.cameras()) {
+          const Camera camera = ToColmapConvention(our_camera);
           WriteBinary<std::uint32_t>(out, id);
           WriteBinary<std::int32_t>(out, static_cast<int>(camera.model_id));
           WriteBinary<std::uint64_t>(out, camera.width);
@@ -216,8 +234,8 @@ void WriteColmapBinary(const Reconstruction& reconstruction, const fs::path& dir
           out.write(image.name.c_str(), image.name.size() + 1);
           WriteBinary<std::uint64_t>(out, image.points2D.size());
           for (const Point2D& p : image.points2D) {
-            WriteBinary<double>(out, p.xy.x());
-            WriteBinary<double>(out, p.xy.y());
+            WriteBinary<double>(out, p.xy.x() + kColmapPixelShift);
+            WriteBinary<double>(out, p.xy.y() + kColmapPixelShift);
             WriteBinary<std::uint64_t>(
                 out, p.HasPoint3D() ? p.point3D_id : kColmapInvalidPoint3D);
           }
@@ -276,7 +294,7 @@ Reconstruction ReadColmapText(const fs::path& dir) {
     } catch (const std::invalid_argument& e) {
       throw std::runtime_error(where + ": " + e.what());
     }
-    reconstruction.AddCamera(camera, id);
+    reconstruction.AddCamera(FromColmapConvention(camera), id);
   });
   std::map<image_t, std::vector<point3D_t>> listed;
   for_each_line(dir / "images.txt", [&](const std::string& line,
@@ -305,7 +323,7 @@ Reconstruction ReadColmapText(const fs::path& dir) {
     double x, y;
     long long point3D_id;
     while (points >> x >> y >> point3D_id) {
-      keypoints.emplace_back(x, y);
+      keypoints.emplace_back(x - kColmapPixelShift, y - kColmapPixelShift);
       ids.push_back(point3D_id < 0 ? kInvalidPoint3DId : point3D_t(point3D_id));
     }
     if (!points.eof()) throw std::runtime_error(where + ": malformed keypoint list");
@@ -352,7 +370,7 @@ Reconstruction ReadColmapBinary(const fs::path& dir) {
       if (!camera.IsValid()) {
         throw std::runtime_error(path.string() + ": invalid camera " + std::to_string(id));
       }
-      reconstruction.AddCamera(camera, id);
+      reconstruction.AddCamera(FromColmapConvention(camera), id);
     }
   }
   std::map<image_t, std::vector<point3D_t>> listed;
@@ -375,8 +393,8 @@ Reconstruction ReadColmapBinary(const fs::path& dir) {
       std::vector<Eigen::Vector2d> keypoints(num_points);
       std::vector<point3D_t>& ids = listed[id];
       for (auto& keypoint : keypoints) {
-        keypoint.x() = ReadBinary<double>(in, path);
-        keypoint.y() = ReadBinary<double>(in, path);
+        keypoint.x() = ReadBinary<double>(in, path) - kColmapPixelShift;
+        keypoint.y() = ReadBinary<double>(in, path) - kColmapPixelShift;
         const auto point3D_id = ReadBinary<std::uint64_t>(in, path);
         ids.push_back(point3D_id == kColmapInvalidPoint3D ? kInvalidPoint3DId
                                                           : point3D_id);

@@ -3,6 +3,9 @@
 // The model in COLMAP's sparse format, text (cameras.txt, images.txt,
 // points3D.txt) and binary (.bin), so COLMAP and the tools that read its
 // format open our results. Only registered images are written, as COLMAP does.
+// Pixel coordinates (keypoints, principal point) are converted to COLMAP's
+// convention, the centre of the top-left pixel at (0.5, 0.5), on writing and
+// back to ours, (0, 0) as in OpenCV, on reading.
 
 #include <filesystem>
 

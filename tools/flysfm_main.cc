@@ -1,9 +1,12 @@
 // The flysfm command-line program. Sub-commands are registered by the modules'
-// issues as they land; each prints its options with their defaults on --help.
+// issues as they land (tools/commands.h); each prints its options with their
+// defaults on --help.
 
 #include <iostream>
 
 #include <CLI/CLI.hpp>
+
+#include "tools/commands.h"
 
 int main(int argc, char** argv) {
   CLI::App app{
@@ -11,6 +14,9 @@ int main(int argc, char** argv) {
       "(pose, new 3D points) as it arrives."};
   app.set_version_flag("--version", "flysfm 0.1.0");
   app.require_subcommand(0, 1);
+  flysfm::AddBatchCommand(app);
+  flysfm::AddEvalCommand(app);
+  flysfm::AddTrainRetrievalCommand(app);
   CLI11_PARSE(app, argc, argv);
   if (app.get_subcommands().empty()) {
     std::cout << app.help();

@@ -1,0 +1,221 @@
+#pragma once
+
+// The on-the-fly engine: one image in, its pose and new 3D points out, before
+// the next image arrives. AddImage follows the paper's Fig. 2 step by step:
+// features, retrieval, matching, two-view geometry, LSM refinement, then
+// initialisation or registration (with LSM densification), triangulation,
+// hierarchical weighted local bundle adjustment and filtering. Images that
+// cannot register yet wait in a pending pool and are retried as the model
+// grows. Single-threaded and deterministic for a given input order.
+
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "bundle/association_tree.h"
+#include "bundle/bundle_adjuster.h"
+#include "core/frame.h"
+#include "core/reconstruction.h"
+#include "geometry/absolute_pose.h"
+#include "geometry/triangulation.h"
+#include "geometry/two_view_geometry.h"
+#include "lsm/densify.h"
+#include "lsm/lsm.h"
+#include "lsm/refine_matches.h"
+#include "matching/features.h"
+#include "matching/match_store.h"
+#include "matching/matcher.h"
+#include "retrieval/image_retriever.h"
+
+namespace flysfm {
+
+// Milliseconds spent in each stage for one image.
+struct StageTimes {
+  double decode = 0;
+  double features = 0;
+  double retrieval = 0;
+  double matching = 0;
+  double verification = 0;
+  double lsm = 0;
+  double registration = 0;
+  double triangulation = 0;
+  double ba = 0;
+  double total = 0;
+};
+
+enum class ImageStatus {
+  kRegistered,
+  kPending,   // waits in the pending pool; retried as the model grows
+  kRejected,  // unreadable: counted and skipped
+};
+const char* ImageStatusName(ImageStatus status);
+
+struct ImageResult {
+  std::string name;
+  image_t image_id = kInvalidImageId;
+  ImageStatus status = ImageStatus::kPending;
+  // Why the image is pending or rejected; empty when registered.
+  std::string reason;
+  std::optional<Rigid3d> cam_from_world;
+  int num_features = 0;
+  int num_candidates = 0;      // retrieved images
+  int num_verified_pairs = 0;  // candidates passing two-view geometry
+  int num_lsm_rejected = 0;    // verified matches LSM dropped as outliers
+  int num_correspondences = 0; // 2D-3D, before RANSAC (incl. densified)
+  int num_densified = 0;       // 2D-3D added by LSM densification
+  int num_pose_inliers = 0;
+  int num_new_points = 0;      // triangulated with this image
+  int num_observations = 0;    // of this image after filtering
+  // The local BA: images refined, images held constant, points, iterations.
+  int ba_free_images = 0;
+  int ba_images = 0;
+  int ba_points = 0;
+  int ba_iterations = 0;
+  // The model after this image.
+  int model_images = 0;
+  int model_points = 0;
+  StageTimes times;
+};
+
+class Engine {
+ public:
+  struct Options {
+    SiftOptions sift;
+    ImageRetrieverOptions retrieval;
+    MatchOptions matching;
+    // Candidates are matched in retrieval order until this many pairs pass
+    // two-view geometry: matching is the costliest stage (the paper's Table
+    // II), and past a dozen overlapping views further pairs add little to
+    // registration or triangulation. Retrieval's top-N bounds the search.
+    int max_verified_pairs = 12;
+    TwoViewGeometryOptions two_view;
+    LsmOptions lsm;
+    // The paper's LSM steps, each switchable for ablations.
+    bool lsm_refinement = true;
+    bool lsm_densification = true;
+    DensifyOptions densify;
+    // Densification looks for the points of this many registered neighbours
+    // (those sharing the most verified matches), as the local BA's first
+    // ripple does.
+    int densify_max_references = 8;
+    // At most this many points are tried per image, longest tracks first:
+    // enough to steady the pose, while the per-image observation count (and
+    // with it every later BA) stays bounded.
+    int densify_max_candidates = 300;
+
+    // Initialisation: the verified pair with the most inliers among those
+    // with at least `init_min_num_inliers` and a median triangulation angle
+    // of at least `init_min_tri_angle_deg`. The paper asks for 60-120 deg on
+    // wide-baseline photo sets; a hand-held video moves a few centimetres a
+    // second, so the threshold is the smallest angle that still fixes depth
+    // well (COLMAP's incremental mapper uses 16 deg on photo sets).
+    int init_min_num_inliers = 100;
+    double init_min_tri_angle_deg = 4.0;
+    // The initial pair must triangulate at least this many points.
+    int init_min_num_points = 50;
+
+    // Registration: at least this many 2D-3D correspondences to try.
+    int min_num_correspondences = 20;
+    AbsolutePoseOptions absolute_pose;
+    TriangulationOptions triangulation = DefaultTriangulationOptions();
+
+    // Local BA over the hierarchical association tree (paper Sect. III-D).
+    HierarchicalAssociationTree::Options ba_tree;
+    // false: the same images in a plain local BA (k = 1, nothing fixed but
+    // the images outside the tree), for the ablation.
+    bool hierarchical_weights = true;
+    // Local BA after each image: a few iterations from a good start converge
+    // (the block was adjusted when its images registered).
+    BundleAdjuster::Options ba = LocalBundleOptions();
+    // The global BA of Finish().
+    BundleAdjuster::Options global_ba;
+
+    // After each BA: observations farther than this from their projection are
+    // dropped, then points seen under less than the angle.
+    double filter_max_error_px = 4.0;
+    double filter_min_tri_angle_deg = 1.5;
+
+    // Unknown intrinsics: SIMPLE_RADIAL with this focal length in units of
+    // the image's longer side (1.2: a 45 deg field of view, typical of the
+    // normal lenses photogrammetry uses), refined in every BA.
+    double unknown_focal_factor = 1.2;
+
+    // Finish() runs a global BA over everything.
+    bool final_global_ba = true;
+
+    bool Check() const;
+
+    static BundleAdjuster::Options LocalBundleOptions();
+    static TriangulationOptions DefaultTriangulationOptions();
+  };
+
+  // `camera`: known intrinsics shared by all images (held fixed unless
+  // options.ba refines them); without it each image size gets a camera with
+  // a guessed focal length, refined in BA. `retrieval_model`: a trained model
+  // file's content; without it retrieval bootstraps from the session.
+  explicit Engine(const Options& options, std::optional<Camera> camera = std::nullopt,
+                  std::shared_ptr<const RetrievalModel> retrieval_model = nullptr);
+
+  // Processes one fly-in image. Returns its result first, then one for each
+  // pending image that registered thanks to it.
+  std::vector<ImageResult> AddImage(const Frame& frame);
+
+  // End of a batch: pending images get a last try, then the optional global
+  // BA. Returns results for images registered by the last try.
+  std::vector<ImageResult> Finish();
+
+  const Reconstruction& reconstruction() const { return reconstruction_; }
+  std::vector<std::string> PendingImageNames() const;
+  int num_rejected() const { return num_rejected_; }
+  bool initialized() const { return initialized_; }
+
+ private:
+  // What the engine keeps of each image it has seen.
+  struct ImageState {
+    FeatureSet features;
+    cv::Mat grey;  // for LSM
+    // How many registered verified neighbours it had at its last try.
+    int registered_neighbours_at_last_try = -1;
+  };
+  // The outcome of two-view geometry for a pair, for initialisation.
+  struct PairGeometry {
+    image_t image_id1 = kInvalidImageId;
+    image_t image_id2 = kInvalidImageId;
+    TwoViewGeometry geometry;  // cam2_from_cam1
+  };
+
+  camera_t CameraFor(int width, int height);
+  void MatchAndVerify(image_t image_id, image_t other_id, ImageResult* result);
+  bool TryInitialize(ImageResult* result);
+  bool TryRegister(image_t image_id, ImageResult* result);
+  std::vector<std::pair<point2D_t, point3D_t>> Find2D3DCorrespondences(image_t image_id);
+  int Densify(image_t image_id, const Rigid3d& cam_from_world,
+              std::vector<std::pair<point2D_t, point3D_t>>* correspondences);
+  int Triangulate(image_t image_id);
+  void AdjustAndFilter(image_t image_id, ImageResult* result);
+  std::vector<int> RegisteredNeighbours(image_t image_id, int n) const;
+  int NumRegisteredVerifiedNeighbours(image_t image_id) const;
+  // Retries waiting images; results for those that register, except the new
+  // image's, which goes into `new_image_result` (may be null).
+  std::vector<ImageResult> RetryPending(ImageResult* new_image_result);
+  void Finalize(ImageResult* result) const;
+
+  Options options_;
+  std::optional<Camera> known_camera_;
+  Reconstruction reconstruction_;
+  ImageRetriever retriever_;
+  MatchStore matches_;
+  std::unordered_map<image_t, ImageState> states_;
+  std::vector<PairGeometry> pair_geometries_;
+  std::vector<image_t> pending_;
+  std::map<std::pair<int, int>, camera_t> camera_by_size_;
+  bool initialized_ = false;
+  int num_rejected_ = 0;
+};
+
+}  // namespace flysfm

@@ -1,0 +1,123 @@
+// The engine on the shared real data sets, each image fed as if it arrived on
+// its own, against ground truth. Floors from the engine issue; COLMAP 3.8 on
+// this kind of machine, for comparison, in ../shared/ANCHORS.md.
+
+#include "core/engine.h"
+
+#include <iostream>
+
+#include <catch2/catch.hpp>
+
+#include "io/evaluation.h"
+#include "io/image_source.h"
+#include "tests/testing/data.h"
+#include "tests/testing/datasets.h"
+
+namespace flysfm {
+namespace {
+
+struct Run {
+  Reconstruction reconstruction;
+  int num_pending = 0;
+};
+
+Run RunEngine(std::vector<Frame> frames, const std::string& camera) {
+  Engine engine(Engine::Options(), Camera::FromString(camera, 0, 0));
+  for (const Frame& frame : frames) engine.AddImage(frame);
+  engine.Finish();
+  return {engine.reconstruction(), int(engine.PendingImageNames().size())};
+}
+
+// Camera centres of the registered images, by image name.
+std::map<std::string, Eigen::Vector3d> Centers(const Reconstruction& reconstruction) {
+  std::map<std::string, Eigen::Vector3d> centers;
+  for (const auto& [id, image] : reconstruction.images()) {
+    if (image.IsRegistered()) centers[image.name] = ProjectionCenter(*image.cam_from_world);
+  }
+  return centers;
+}
+
+PositionErrors CompareCenters(const std::map<std::string, Eigen::Vector3d>& estimated,
+                              const std::map<std::string, Eigen::Vector3d>& truth) {
+  std::vector<Eigen::Vector3d> a, b;
+  for (const auto& [name, center] : estimated) {
+    a.push_back(center);
+    b.push_back(truth.at(name));
+  }
+  const std::optional<PositionErrors> errors = ComparePositionsAfterSim3(a, b);
+  REQUIRE(errors);
+  return *errors;
+}
+
+void Print(const std::string& set, const Run& run, std::size_t num_images,
+           const PositionErrors& errors, const char* unit, double unit_scale) {
+  std::cout << set << ": " << run.reconstruction.NumRegisteredImages() << "/" << num_images
+            << " registered, " << run.reconstruction.NumPoints3D() << " points, mean "
+            << "reprojection error " << run.reconstruction.MeanReprojectionError()
+            << " px, centre RMSE " << errors.rmse * unit_scale << " " << unit << " (max "
+            << errors.max * unit_scale << " " << unit << ")\n";
+}
+
+TEST_CASE("TUM freiburg3, 17 frames at 1 Hz: all registered, ATE <= 1.5 cm") {
+  const std::string dir =
+      testing::DataPath("tum/rgbd_dataset_freiburg3_long_office_household_superglue17");
+  const std::vector<Frame> frames = ListTumSequence(dir);
+  const Run run = RunEngine(frames, "PINHOLE 535.4,539.2,320.1,247.6");
+  CHECK(run.reconstruction.NumRegisteredImages() == frames.size());
+  const TrajectoryEvaluation evaluation = EvaluateTrajectory(
+      TrajectoryOf(run.reconstruction), ReadTumTrajectory(dir + "/groundtruth.txt"));
+  REQUIRE(evaluation.ate);
+  Print("fr3 17", run, frames.size(), *evaluation.ate, "cm", 100);
+  // The first frame has no ground truth within 0.02 s (data README).
+  CHECK(evaluation.num_associated == int(frames.size()) - 1);
+  CHECK(evaluation.ate->rmse <= 0.015);
+  CHECK(run.reconstruction.MeanReprojectionError() <= 0.8);
+}
+
+TEST_CASE("TUM freiburg1_xyz, first 60 frames in order: all registered, ATE <= 1.5 cm") {
+  const std::string dir = testing::DataPath("tum/rgbd_dataset_freiburg1_xyz");
+  std::vector<Frame> frames = ListTumSequence(dir);
+  frames.resize(60);
+  const Run run = RunEngine(frames,
+                            "FULL_OPENCV 517.3,516.5,318.6,255.3,0.2624,-0.9531,"
+                            "-0.0054,0.0026,1.1633,0,0,0");
+  CHECK(run.reconstruction.NumRegisteredImages() == frames.size());
+  const TrajectoryEvaluation evaluation = EvaluateTrajectory(
+      TrajectoryOf(run.reconstruction), ReadTumTrajectory(dir + "/groundtruth.txt"));
+  REQUIRE(evaluation.ate);
+  Print("fr1_xyz 60", run, frames.size(), *evaluation.ate, "cm", 100);
+  CHECK(evaluation.ate->rmse <= 0.015);
+  CHECK(run.reconstruction.MeanReprojectionError() <= 0.8);
+}
+
+TEST_CASE("Strecha fountain-P11 with its K: all registered, centres within 5 mm RMS") {
+  const std::string dir = testing::DataPath("strecha/fountain-P11");
+  const std::vector<Frame> frames = ListImageFolder(dir + "/images");
+  const Run run = RunEngine(frames, "PINHOLE 2759.48,2764.16,1520.69,1006.81");
+  CHECK(run.reconstruction.NumRegisteredImages() == frames.size());
+  std::map<std::string, Eigen::Vector3d> truth;
+  for (const Frame& frame : frames) {
+    truth[frame.name] =
+        testing::ReadStrechaCamera(dir + "/gt_dense_cameras/" + frame.name + ".camera").centre;
+  }
+  const PositionErrors errors = CompareCenters(Centers(run.reconstruction), truth);
+  Print("fountain-P11", run, frames.size(), errors, "mm", 1000);
+  CHECK(errors.rmse <= 0.005);
+}
+
+TEST_CASE("Middlebury templeRing_subset19 with its K: all registered, centres within 3 mm") {
+  const std::string dir = testing::DataPath("middlebury/templeRing_subset19");
+  const std::vector<Frame> frames = ListImageFolder(dir);
+  const Run run = RunEngine(frames, "PINHOLE 1520.4,1525.9,302.32,246.87");
+  CHECK(run.reconstruction.NumRegisteredImages() == frames.size());
+  std::map<std::string, Eigen::Vector3d> truth;
+  for (const auto& camera : testing::ReadMiddleburyCameras(dir + "/templeR_par.txt")) {
+    truth[camera.name] = camera.Centre();
+  }
+  const PositionErrors errors = CompareCenters(Centers(run.reconstruction), truth);
+  Print("templeRing 19", run, frames.size(), errors, "mm", 1000);
+  CHECK(errors.rmse <= 0.003);
+}
+
+}  // namespace
+}  // namespace flysfm

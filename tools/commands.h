@@ -1,0 +1,18 @@
+#pragma once
+
+// Sub-commands of the flysfm program, one function per command, each in its
+// own tools/<name>.cc. A function registers the command, its options with
+// their defaults and its callback on `app`.
+
+#include <CLI/CLI.hpp>
+
+namespace flysfm {
+
+// flysfm batch DIR --out OUT [--camera ...] [--shuffle SEED] [--interval S]
+void AddBatchCommand(CLI::App& app);
+// flysfm eval --groundtruth GT --trajectory TRAJ
+void AddEvalCommand(CLI::App& app);
+// flysfm train-retrieval --images DIR [DIR ...] --out FILE
+void AddTrainRetrievalCommand(CLI::App& app);
+
+}  // namespace flysfm

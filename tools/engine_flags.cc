@@ -1,0 +1,106 @@
+#include "tools/engine_flags.h"
+
+#include <chrono>
+#include <cstdio>
+#include <iostream>
+
+#include "retrieval/retrieval_model.h"
+
+namespace flysfm {
+
+void AddEngineFlags(CLI::App* command, EngineFlags* flags) {
+  command->add_option("--out", flags->out, "Output folder (model, log, summary)")
+      ->required();
+  command->add_option("--camera", flags->camera,
+                      "Known intrinsics shared by all images, \"MODEL p1,p2,...\" in "
+                      "COLMAP's parameter order (e.g. \"FULL_OPENCV 517.3,516.5,318.6,"
+                      "255.3,0.2624,-0.9531,-0.0054,0.0026,1.1633,0,0,0\"); held fixed. "
+                      "Default: unknown, SIMPLE_RADIAL guessed and refined");
+  command->add_option("--retrieval-model", flags->retrieval_model,
+                      "Retrieval model from `flysfm train-retrieval`. Default: "
+                      "bootstrapped from the session's own images");
+  command->add_flag("--no-lsm-refinement", flags->no_lsm_refinement,
+                    "Ablation: keep raw SIFT positions (no LSM refinement)");
+  command->add_flag("--no-lsm-densification", flags->no_lsm_densification,
+                    "Ablation: no LSM densification of 2D-3D correspondences");
+  command->add_flag("--no-hierarchical-weights", flags->no_hierarchical_weights,
+                    "Ablation: plain local BA of the association tree's images");
+  command->add_flag("--exhaustive-retrieval", flags->exhaustive_retrieval,
+                    "Ablation: exhaustive global-descriptor search, no vocabulary tree");
+  command->add_flag("--no-global-ba", flags->no_global_ba,
+                    "Skip the global bundle adjustment at the end");
+  command->add_option("--refresh-seconds", flags->refresh_seconds,
+                      "Rewrite the model in --out at most this often while running")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+}
+
+Engine EngineFlags::MakeEngine() const {
+  Engine::Options options;
+  options.lsm_refinement = !no_lsm_refinement;
+  options.lsm_densification = !no_lsm_densification;
+  options.hierarchical_weights = !no_hierarchical_weights;
+  options.retrieval.use_tree = !exhaustive_retrieval;
+  options.final_global_ba = !no_global_ba;
+  std::optional<Camera> known_camera;
+  if (!camera.empty()) known_camera = Camera::FromString(camera, 0, 0);
+  std::shared_ptr<const RetrievalModel> model;
+  if (!retrieval_model.empty()) {
+    model = std::make_shared<const RetrievalModel>(RetrievalModel::Load(retrieval_model));
+  }
+  return Engine(options, known_camera, model);
+}
+
+namespace {
+
+void PrintLine(int index, const ImageResult& result) {
+  std::printf("[%4d] %-32s %-10s %6d pts %+5d new %7.0f ms  model %d img / %d pts%s%s\n",
+              index, result.name.c_str(), ImageStatusName(result.status),
+              result.num_observations, result.num_new_points, result.times.total,
+              result.model_images, result.model_points,
+              result.reason.empty() ? "" : "  ", result.reason.c_str());
+  std::fflush(stdout);
+}
+
+}  // namespace
+
+int RunEngine(ImageSource* source, Engine* engine, const EngineFlags& flags) {
+  RunWriter writer(flags.out);
+  const auto start = std::chrono::steady_clock::now();
+  auto last_refresh = start;
+  const auto seconds_since = [](std::chrono::steady_clock::time_point t) {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+  };
+  std::vector<ImageResult> all;
+  int num_input = 0;
+  const auto report = [&](const std::vector<ImageResult>& results) {
+    for (const ImageResult& result : results) {
+      PrintLine(num_input, result);
+      writer.Log(result);
+      all.push_back(result);
+    }
+  };
+  while (std::optional<Frame> frame = source->Next()) {
+    ++num_input;
+    report(engine->AddImage(*frame));
+    if (seconds_since(last_refresh) >= flags.refresh_seconds) {
+      writer.WriteModel(engine->reconstruction());
+      writer.WriteSummary(engine->reconstruction(), all, num_input,
+                          engine->PendingImageNames(), seconds_since(start));
+      last_refresh = std::chrono::steady_clock::now();
+    }
+  }
+  report(engine->Finish());
+  writer.WriteModel(engine->reconstruction());
+  writer.WriteSummary(engine->reconstruction(), all, num_input,
+                      engine->PendingImageNames(), seconds_since(start));
+  const Reconstruction& model = engine->reconstruction();
+  std::printf("done: %d images in, %zu registered, %d rejected, %zu pending; %zu points, "
+              "mean reprojection error %.3f px; %.1f s. Output in %s\n",
+              num_input, model.NumRegisteredImages(), engine->num_rejected(),
+              engine->PendingImageNames().size(), model.NumPoints3D(),
+              model.MeanReprojectionError(), seconds_since(start), flags.out.c_str());
+  return 0;
+}
+
+}  // namespace flysfm

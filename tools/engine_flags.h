@@ -1,0 +1,40 @@
+#pragma once
+
+// Options shared by the commands that run the engine (batch, demo, live):
+// the camera, the retrieval model, the ablation switches and the output.
+
+#include <optional>
+#include <string>
+
+#include <CLI/CLI.hpp>
+
+#include "core/engine.h"
+#include "io/image_source.h"
+#include "io/run_writer.h"
+
+namespace flysfm {
+
+struct EngineFlags {
+  std::string camera;           // "MODEL p1,p2,..."; empty: unknown
+  std::string retrieval_model;  // file from train-retrieval; empty: bootstrap
+  bool no_lsm_refinement = false;
+  bool no_lsm_densification = false;
+  bool no_hierarchical_weights = false;
+  bool exhaustive_retrieval = false;
+  bool no_global_ba = false;
+  std::string out;
+  double refresh_seconds = 2.0;
+
+  // Throws std::invalid_argument with a one-line message for a bad camera or
+  // an unreadable retrieval model.
+  Engine MakeEngine() const;
+};
+
+void AddEngineFlags(CLI::App* command, EngineFlags* flags);
+
+// Runs every frame of `source` through the engine, printing one line per
+// image result and keeping `out` current; ends with Finish() and the final
+// model. Returns the process exit code.
+int RunEngine(ImageSource* source, Engine* engine, const EngineFlags& flags);
+
+}  // namespace flysfm
