@@ -1,47 +1,28 @@
 #include "io/image_source.h"
 
 #include <algorithm>
-#include <cctype>
 #include <fstream>
 #include <random>
 #include <sstream>
 #include <stdexcept>
 #include <thread>
 
-namespace flysfm {
-namespace {
+#include "matching/image_decode.h"
 
+namespace flysfm {
 namespace fs = std::filesystem;
 
-bool HasImageExtension(const fs::path& path) {
-  std::string extension = path.extension().string();
-  std::transform(extension.begin(), extension.end(), extension.begin(),
-                 [](unsigned char c) { return std::tolower(c); });
-  return extension == ".jpg" || extension == ".jpeg" || extension == ".png" ||
-         extension == ".tif" || extension == ".tiff";
-}
-
-}  // namespace
-
 std::vector<Frame> ListImageFolder(const fs::path& dir) {
-  if (!fs::is_directory(dir)) {
-    throw std::invalid_argument("no such folder: " + dir.string());
-  }
-  std::vector<fs::path> paths;
-  for (const auto& entry : fs::directory_iterator(dir)) {
-    if (entry.is_regular_file() && HasImageExtension(entry.path())) {
-      paths.push_back(entry.path());
-    }
-  }
+  const std::vector<std::string> paths = ListImageFiles(dir.string());
   if (paths.empty()) {
-    throw std::invalid_argument("no images (jpg, jpeg, png, tif) in " + dir.string());
+    throw std::invalid_argument("no images (jpg, jpeg, png, tif, bmp, pgm, ppm) in " +
+                                dir.string());
   }
-  std::sort(paths.begin(), paths.end());
   std::vector<Frame> frames;
-  for (const fs::path& path : paths) {
+  for (const std::string& path : paths) {
     Frame frame;
-    frame.name = path.filename().string();
     frame.path = path;
+    frame.name = frame.path.filename().string();
     frame.timestamp = double(frames.size());
     frames.push_back(std::move(frame));
   }

@@ -21,8 +21,8 @@ class ImageSource {
   virtual std::optional<Frame> Next() = 0;
 };
 
-// Image files (jpg, jpeg, png, tif, tiff; any case) directly in `dir`, sorted
-// by name. Throws std::invalid_argument for a missing folder or one without
+// Image files (matching's ListImageFiles: jpg, jpeg, png, tif, tiff, bmp,
+// pgm, ppm; any case) directly in `dir`, sorted by name. Throws std::invalid_argument for a missing folder or one without
 // images.
 std::vector<Frame> ListImageFolder(const std::filesystem::path& dir);
 // The frames of a TUM RGB-D sequence folder in rgb.txt order, named by their

@@ -19,18 +19,19 @@ fs::path MakeFolder(const std::string& name, const std::vector<std::string>& fil
 
 TEST_CASE("An image folder lists its images by name, any extension case") {
   const fs::path dir = MakeFolder(
-      "folder", {"b.JPG", "a.png", "c.jpeg", "d.TIF", "e.tiff", "notes.txt", "f.bmp"});
+      "folder", {"b.JPG", "a.png", "c.jpeg", "d.TIF", "e.tiff", "notes.txt", "f.bmp", "g.gif"});
   const auto frames = ListImageFolder(dir);
   std::vector<std::string> names;
   for (const auto& f : frames) names.push_back(f.name);
-  CHECK(names == std::vector<std::string>{"a.png", "b.JPG", "c.jpeg", "d.TIF", "e.tiff"});
+  CHECK(names ==
+        std::vector<std::string>{"a.png", "b.JPG", "c.jpeg", "d.TIF", "e.tiff", "f.bmp"});
   CHECK(frames[1].path == dir / "b.JPG");
   CHECK(frames[1].timestamp == 1);
 }
 
 TEST_CASE("Missing or empty folders are clear errors") {
   using Catch::Matchers::Contains;
-  CHECK_THROWS_WITH(ListImageFolder("/nonexistent/flysfm"), Contains("no such folder"));
+  CHECK_THROWS_WITH(ListImageFolder("/nonexistent/flysfm"), Contains("does not exist"));
   CHECK_THROWS_WITH(ListImageFolder(MakeFolder("empty", {"a.txt"})),
                     Contains("no images"));
 }
