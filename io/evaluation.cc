@@ -37,6 +37,19 @@ std::optional<PositionErrors> ComparePositionsAfterSim3(
   return result;
 }
 
+std::optional<PositionErrors> CompareCentersByName(
+    const Reconstruction& reconstruction,
+    const std::map<std::string, Eigen::Vector3d>& reference_centers) {
+  std::vector<Eigen::Vector3d> estimated, reference;
+  for (const auto& [id, image] : reconstruction.images()) {
+    const auto it = reference_centers.find(image.name);
+    if (!image.IsRegistered() || it == reference_centers.end()) continue;
+    estimated.push_back(ProjectionCenter(*image.cam_from_world));
+    reference.push_back(it->second);
+  }
+  return ComparePositionsAfterSim3(estimated, reference);
+}
+
 TrajectoryEvaluation EvaluateTrajectory(const std::vector<StampedPose>& estimated,
                                         const std::vector<StampedPose>& reference,
                                         double max_time_difference) {

@@ -4,12 +4,14 @@
 // (Sim3, Umeyama) that best aligns the estimate to the reference, the
 // convention for monocular methods (TUM's ATE) and for Strecha's benchmark.
 
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include <Eigen/Core>
 
+#include "core/reconstruction.h"
 #include "geometry/sim3d.h"
 #include "io/trajectory.h"
 
@@ -29,6 +31,12 @@ struct PositionErrors {
 std::optional<PositionErrors> ComparePositionsAfterSim3(
     const std::vector<Eigen::Vector3d>& estimated,
     const std::vector<Eigen::Vector3d>& reference);
+
+// The registered images' camera centres against reference centres given by
+// image name (images without one are left out), after Sim3 alignment.
+std::optional<PositionErrors> CompareCentersByName(
+    const Reconstruction& reconstruction,
+    const std::map<std::string, Eigen::Vector3d>& reference_centers);
 
 struct TrajectoryEvaluation {
   int num_estimated = 0;

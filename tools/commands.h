@@ -10,6 +10,8 @@ namespace flysfm {
 
 // flysfm batch DIR --out OUT [--camera ...] [--shuffle SEED] [--interval S]
 void AddBatchCommand(CLI::App& app);
+// flysfm demo [--out DIR] [--views N]
+void AddDemoCommand(CLI::App& app);
 // flysfm eval --groundtruth GT --trajectory TRAJ
 void AddEvalCommand(CLI::App& app);
 // flysfm train-retrieval --images DIR [DIR ...] --out FILE

@@ -9,8 +9,14 @@
 namespace flysfm {
 
 void AddEngineFlags(CLI::App* command, EngineFlags* flags) {
-  command->add_option("--out", flags->out, "Output folder (model, log, summary)")
-      ->required();
+  CLI::Option* out =
+      command->add_option("--out", flags->out, "Output folder (model, log, summary)");
+  // A command that presets the folder makes it optional.
+  if (flags->out.empty()) {
+    out->required();
+  } else {
+    out->capture_default_str();
+  }
   command->add_option("--camera", flags->camera,
                       "Known intrinsics shared by all images, \"MODEL p1,p2,...\" in "
                       "COLMAP's parameter order (e.g. \"FULL_OPENCV 517.3,516.5,318.6,"

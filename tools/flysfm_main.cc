@@ -15,6 +15,7 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", "flysfm 0.1.0");
   app.require_subcommand(0, 1);
   flysfm::AddBatchCommand(app);
+  flysfm::AddDemoCommand(app);
   flysfm::AddEvalCommand(app);
   flysfm::AddTrainRetrievalCommand(app);
   CLI11_PARSE(app, argc, argv);

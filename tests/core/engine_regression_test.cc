@@ -28,23 +28,9 @@ Run RunEngine(std::vector<Frame> frames, const std::string& camera) {
   return {engine.reconstruction(), int(engine.PendingImageNames().size())};
 }
 
-// Camera centres of the registered images, by image name.
-std::map<std::string, Eigen::Vector3d> Centers(const Reconstruction& reconstruction) {
-  std::map<std::string, Eigen::Vector3d> centers;
-  for (const auto& [id, image] : reconstruction.images()) {
-    if (image.IsRegistered()) centers[image.name] = ProjectionCenter(*image.cam_from_world);
-  }
-  return centers;
-}
-
-PositionErrors CompareCenters(const std::map<std::string, Eigen::Vector3d>& estimated,
+PositionErrors CompareCenters(const Reconstruction& reconstruction,
                               const std::map<std::string, Eigen::Vector3d>& truth) {
-  std::vector<Eigen::Vector3d> a, b;
-  for (const auto& [name, center] : estimated) {
-    a.push_back(center);
-    b.push_back(truth.at(name));
-  }
-  const std::optional<PositionErrors> errors = ComparePositionsAfterSim3(a, b);
+  const std::optional<PositionErrors> errors = CompareCentersByName(reconstruction, truth);
   REQUIRE(errors);
   return *errors;
 }
@@ -100,7 +86,7 @@ TEST_CASE("Strecha fountain-P11 with its K: all registered, centres within 5 mm 
     truth[frame.name] =
         testing::ReadStrechaCamera(dir + "/gt_dense_cameras/" + frame.name + ".camera").centre;
   }
-  const PositionErrors errors = CompareCenters(Centers(run.reconstruction), truth);
+  const PositionErrors errors = CompareCenters(run.reconstruction, truth);
   Print("fountain-P11", run, frames.size(), errors, "mm", 1000);
   CHECK(errors.rmse <= 0.005);
 }
@@ -114,7 +100,7 @@ TEST_CASE("Middlebury templeRing_subset19 with its K: all registered, centres wi
   for (const auto& camera : testing::ReadMiddleburyCameras(dir + "/templeR_par.txt")) {
     truth[camera.name] = camera.Centre();
   }
-  const PositionErrors errors = CompareCenters(Centers(run.reconstruction), truth);
+  const PositionErrors errors = CompareCenters(run.reconstruction, truth);
   Print("templeRing 19", run, frames.size(), errors, "mm", 1000);
   CHECK(errors.rmse <= 0.003);
 }

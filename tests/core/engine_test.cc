@@ -1,70 +1,33 @@
 #include "core/engine.h"
 
-#include <random>
-
 #include <catch2/catch.hpp>
-#include <opencv2/imgcodecs.hpp>
 
-#include "geometry/similarity.h"
-#include "tests/testing/render.h"
+#include "io/evaluation.h"
+#include "io/synthetic_source.h"
 
 namespace flysfm {
 namespace {
 
-// A hand-held walk past the facet scene: cameras about 5 m from the wall,
-// spread over 3 m, each looking at the scene's centre with a little jitter.
-struct Capture {
-  Camera camera = Camera::FromString("PINHOLE 500,500,320,240", 640, 480);
-  std::vector<Rigid3d> cams_from_world;
-  std::vector<Frame> frames;
-};
-
-Capture RenderCapture(int num_views, std::uint32_t seed) {
-  const testing::TexturedScene scene = testing::MakeFacetScene(seed);
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> jitter(-1.0, 1.0);
-  Capture capture;
-  for (int i = 0; i < num_views; ++i) {
-    const double s = double(i) / (num_views - 1) - 0.5;
-    const Eigen::Vector3d center(3.0 * s, 0.2 * jitter(rng), -5.0 + 0.2 * jitter(rng));
-    const Eigen::Vector3d target(0.3 * jitter(rng), 0.2 * jitter(rng), 1.0);
-    const Eigen::Vector3d forward = (target - center).normalized();
-    const Eigen::Vector3d right = Eigen::Vector3d::UnitY().cross(forward).normalized();
-    Eigen::Matrix3d world_from_cam;
-    world_from_cam << right, forward.cross(right), forward;
-    const Rigid3d cam_from_world(Eigen::Matrix3d(world_from_cam.transpose()),
-                                 -(world_from_cam.transpose() * center));
-    capture.cams_from_world.push_back(cam_from_world);
-    const testing::RenderedView view =
-        testing::Render(scene, capture.camera, cam_from_world, /*supersampling=*/2);
-    Frame frame;
-    frame.name = "view" + std::to_string(100 + i) + ".png";
-    cv::imencode(".png", view.image, frame.bytes);
-    capture.frames.push_back(std::move(frame));
+// Centre RMSE of the registered images after Sim3 alignment to the truth.
+double CenterRmse(const Reconstruction& reconstruction, const SyntheticCapture& capture) {
+  std::map<std::string, Eigen::Vector3d> truth;
+  for (std::size_t i = 0; i < capture.frames.size(); ++i) {
+    truth[capture.frames[i].name] = ProjectionCenter(capture.cams_from_world[i]);
   }
-  return capture;
+  const std::optional<PositionErrors> errors = CompareCentersByName(reconstruction, truth);
+  REQUIRE(errors);
+  return errors->rmse;
 }
 
-// Camera centres after the Sim3 that best aligns them to the truth.
-double CenterRmseAfterSim3(const Reconstruction& reconstruction, const Capture& capture) {
-  std::vector<Eigen::Vector3d> estimated, truth;
-  for (const auto& [id, image] : reconstruction.images()) {
-    if (!image.IsRegistered()) continue;
-    const int index = std::stoi(image.name.substr(4, 3)) - 100;
-    estimated.push_back(ProjectionCenter(*image.cam_from_world));
-    truth.push_back(ProjectionCenter(capture.cams_from_world[index]));
-  }
-  const std::optional<Sim3d> truth_from_estimate = SimilarityFromPoints(estimated, truth);
-  REQUIRE(truth_from_estimate);
-  double sum = 0;
-  for (std::size_t i = 0; i < estimated.size(); ++i) {
-    sum += (*truth_from_estimate * estimated[i] - truth[i]).squaredNorm();
-  }
-  return std::sqrt(sum / estimated.size());
+SyntheticCapture RenderCapture(int num_views, std::uint32_t seed) {
+  SyntheticCaptureOptions options;
+  options.num_views = num_views;
+  options.seed = seed;
+  return MakeSyntheticCapture(options);
 }
 
 TEST_CASE("The engine registers a rendered capture with accurate poses") {
-  const Capture capture = RenderCapture(12, 3);
+  const SyntheticCapture capture = RenderCapture(12, 3);
   Engine engine(Engine::Options(), capture.camera);
   int reported_registered = 0;
   for (const Frame& frame : capture.frames) {
@@ -87,11 +50,11 @@ TEST_CASE("The engine registers a rendered capture with accurate poses") {
   // Rendered pixels are exact up to interpolation: sub-pixel reprojection.
   CHECK(model.MeanReprojectionError() < 0.5);
   // Centres within 0.5 % of the 3 m path (the demo criterion).
-  CHECK(CenterRmseAfterSim3(model, capture) < 0.005 * 3.0);
+  CHECK(CenterRmse(model, capture) < 0.005 * SyntheticCaptureOptions().path_length);
 }
 
 TEST_CASE("Unreadable images are counted rejections, and the run goes on") {
-  const Capture capture = RenderCapture(8, 5);
+  const SyntheticCapture capture = RenderCapture(8, 5);
   Engine engine(Engine::Options(), capture.camera);
   std::vector<Frame> frames = capture.frames;
   Frame truncated = frames[2];

@@ -9,7 +9,7 @@
 
 #include <catch2/catch.hpp>
 
-#include "tests/testing/render.h"
+#include "io/synthetic_scene.h"
 #include "tests/testing/synthetic.h"
 
 namespace flysfm {
@@ -26,18 +26,18 @@ Rigid3d LookingForward(const Eigen::Vector3d& center, double tilt_x,
   return Rigid3d(rotation, -rotation * center);
 }
 
-LsmView MakeView(const testing::TexturedScene& scene, const Camera& camera,
+LsmView MakeView(const TexturedScene& scene, const Camera& camera,
                  const Rigid3d& cam_from_world, int levels) {
   LsmView view;
   view.camera = camera;
   view.cam_from_world = cam_from_world;
   view.pyramid = BuildLsmPyramid(
-      testing::Render(scene, camera, cam_from_world).image, levels);
+      Render(scene, camera, cam_from_world).image, levels);
   return view;
 }
 
 struct Scenario {
-  testing::TexturedScene scene;
+  TexturedScene scene;
   Camera camera;
   std::vector<LsmView> references;
   Rigid3d true_pose;
@@ -48,7 +48,7 @@ struct Scenario {
 // scene seen by a reference, observed at its exact projection.
 Scenario MakeScenario(int levels) {
   Scenario scenario;
-  scenario.scene = testing::MakeFacetScene(3);
+  scenario.scene = MakeFacetScene(3);
   // OpenCV pixel convention: the principal point of a centred lens.
   scenario.camera = Camera::FromString("PINHOLE 500,500,319.5,239.5", 640, 480);
   const Rigid3d reference_poses[] = {
@@ -63,12 +63,12 @@ Scenario MakeScenario(int levels) {
 
   std::mt19937 rng(17);
   for (const Eigen::Vector3d& point :
-       testing::SamplePointsOnFacets(scenario.scene, 1500, rng)) {
+       SamplePointsOnFacets(scenario.scene, 1500, rng)) {
     DensifyCandidate candidate;
     candidate.xyz = point;
     for (int v = 0; v < 3; ++v) {
       const LsmView& reference = scenario.references[v];
-      if (!testing::IsVisible(scenario.scene, scenario.camera,
+      if (!IsVisible(scenario.scene, scenario.camera,
                               reference.cam_from_world, point)) {
         continue;
       }
@@ -93,7 +93,7 @@ enum class Truth {
   kAtDepthEdge,    // visible, its window across a depth discontinuity
 };
 
-Truth Classify(const Scenario& scenario, const testing::RenderedView& rendered,
+Truth Classify(const Scenario& scenario, const RenderedView& rendered,
                const Eigen::Vector3d& point, int window_size) {
   const Camera& camera = scenario.camera;
   const Eigen::Vector3d in_cam = scenario.true_pose * point;
@@ -109,7 +109,7 @@ Truth Classify(const Scenario& scenario, const testing::RenderedView& rendered,
     return rendered.depth.at<float>(std::clamp(r, 0, camera.height - 1),
                                     std::clamp(c, 0, camera.width - 1));
   };
-  if (!testing::IsVisible(scenario.scene, camera, scenario.true_pose, point)) {
+  if (!IsVisible(scenario.scene, camera, scenario.true_pose, point)) {
     for (int dr = -3; dr <= 3; ++dr) {
       for (int dc = -3; dc <= 3; ++dc) {
         if (depth_at(row + dr, col + dc) >= 0.999 * in_cam.z()) {
@@ -154,8 +154,8 @@ TEST_CASE(
   const Rigid3d initial(rotation, -rotation * center);
   REQUIRE(RotationDifferenceDeg(initial, truth) == Approx(1.0).epsilon(1e-6));
 
-  const testing::RenderedView rendered =
-      testing::Render(scenario.scene, scenario.camera, truth);
+  const RenderedView rendered =
+      Render(scenario.scene, scenario.camera, truth);
   LsmView image;
   image.camera = scenario.camera;
   image.cam_from_world = initial;

@@ -10,7 +10,7 @@
 #include <catch2/catch.hpp>
 
 #include "tests/testing/affine_pair.h"
-#include "tests/testing/texture.h"
+#include "io/procedural_texture.h"
 
 namespace flysfm {
 namespace {
@@ -192,8 +192,8 @@ TEST_CASE("LSM sigma0 matches the noise of the template") {
 }
 
 TEST_CASE("LSM rejects matches onto unrelated texture") {
-  const LsmImage image1(testing::MakeTexture(400, 400, 11));
-  const LsmImage image2(testing::MakeTexture(400, 400, 12));
+  const LsmImage image1(MakeTexture(400, 400, 11));
+  const LsmImage image2(MakeTexture(400, 400, 12));
   LsmMatcher matcher{LsmOptions()};
   std::mt19937 rng(5);
   std::uniform_real_distribution<double> coordinate(20.0, 380.0);
@@ -208,7 +208,7 @@ TEST_CASE("LSM rejects matches onto unrelated texture") {
 }
 
 TEST_CASE("LSM rejects flat windows and windows leaving the image") {
-  const cv::Mat texture = testing::MakeTexture(200, 200, 3);
+  const cv::Mat texture = MakeTexture(200, 200, 3);
   const LsmImage textured(texture);
   const LsmImage flat(cv::Mat(200, 200, CV_8U, cv::Scalar(128)));
   LsmMatcher matcher{LsmOptions()};

@@ -8,7 +8,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "matching/matcher.h"
-#include "tests/testing/texture.h"
+#include "io/procedural_texture.h"
 #include "tests/testing/warped_pair.h"
 
 namespace flysfm {
@@ -60,7 +60,7 @@ TEST_CASE("keypoints of a downscaled extraction are in full-resolution pixels") 
 TEST_CASE("descriptors are RootSIFT and the feature count is capped") {
   SiftOptions options;
   options.max_num_features = 500;
-  const FeatureSet f = ExtractFeatures(testing::MakeTexture(640, 480, 1), options);
+  const FeatureSet f = ExtractFeatures(MakeTexture(640, 480, 1), options);
   REQUIRE(f.size() > 0);
   // OpenCV keeps keypoints tied in response with the 500th, so a few more.
   CHECK(f.size() <= 510);
@@ -74,7 +74,7 @@ TEST_CASE("descriptors are RootSIFT and the feature count is capped") {
 TEST_CASE("keypoints carry the colour of their pixel in RGB order") {
   // Texture in green only, red saturated, blue zero: whatever the keypoint,
   // r = 255 and b = 0, and g is the pixel's green value.
-  const cv::Mat texture = testing::MakeTexture(320, 240, 5);
+  const cv::Mat texture = MakeTexture(320, 240, 5);
   cv::Mat bgr;
   cv::merge(std::vector<cv::Mat>{cv::Mat::zeros(240, 320, CV_8U), texture,
                                  cv::Mat(240, 320, CV_8U, cv::Scalar(255))},
@@ -96,7 +96,7 @@ TEST_CASE("a blank image has no features and bad images or options are rejected"
   SiftOptions bad;
   bad.max_num_features = 0;
   CHECK_FALSE(bad.Check());
-  CHECK_THROWS_AS(ExtractFeatures(testing::MakeTexture(64, 64, 1), bad), std::invalid_argument);
+  CHECK_THROWS_AS(ExtractFeatures(MakeTexture(64, 64, 1), bad), std::invalid_argument);
 }
 
 }  // namespace

@@ -8,7 +8,7 @@
 #include <catch2/catch.hpp>
 #include <opencv2/imgcodecs.hpp>
 
-#include "tests/testing/texture.h"
+#include "io/procedural_texture.h"
 
 namespace flysfm {
 namespace {
@@ -20,7 +20,7 @@ std::vector<std::uint8_t> Encode(const cv::Mat& image, const std::string& extens
 }
 
 TEST_CASE("PNG and JPEG bytes decode to the encoded image") {
-  const cv::Mat image = testing::MakeTexture(160, 120, 2, true);
+  const cv::Mat image = MakeTexture(160, 120, 2, true);
   const DecodedImage png = DecodeImageBytes(Encode(image, ".png"));
   REQUIRE(png.ok());
   CHECK(cv::norm(png.image, image, cv::NORM_INF) == 0);  // lossless
@@ -37,7 +37,7 @@ TEST_CASE("PNG and JPEG bytes decode to the encoded image") {
 }
 
 TEST_CASE("bad bytes give an error and never a crash") {
-  const cv::Mat image = testing::MakeTexture(160, 120, 3, true);
+  const cv::Mat image = MakeTexture(160, 120, 3, true);
   const std::vector<std::uint8_t> png = Encode(image, ".png");
   const std::vector<std::uint8_t> jpeg = Encode(image, ".jpg");
 
@@ -73,7 +73,7 @@ TEST_CASE("image files are decoded and listed and missing ones give errors") {
   const fs::path dir = fs::temp_directory_path() / "flysfm_image_decode_test";
   fs::remove_all(dir);
   fs::create_directories(dir);
-  const cv::Mat image = testing::MakeTexture(64, 48, 4, true);
+  const cv::Mat image = MakeTexture(64, 48, 4, true);
   REQUIRE(cv::imwrite((dir / "b.png").string(), image));
   REQUIRE(cv::imwrite((dir / "a.JPG").string(), image));
   std::ofstream((dir / "notes.txt").string()) << "x";

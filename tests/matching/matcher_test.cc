@@ -8,7 +8,7 @@
 
 #include <catch2/catch.hpp>
 
-#include "tests/testing/texture.h"
+#include "io/procedural_texture.h"
 #include "tests/testing/warped_pair.h"
 
 namespace flysfm {
@@ -22,7 +22,7 @@ MatchOptions Options(MatcherBackend backend) {
 
 const FeatureSet& TextureFeatures() {
   static const FeatureSet features =
-      ExtractFeatures(testing::MakeTexture(640, 480, 11), SiftOptions());
+      ExtractFeatures(MakeTexture(640, 480, 11), SiftOptions());
   return features;
 }
 

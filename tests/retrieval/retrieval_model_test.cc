@@ -8,7 +8,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "tests/retrieval/place_features.h"
-#include "tests/testing/texture.h"
+#include "io/procedural_texture.h"
 
 namespace flysfm {
 namespace {
@@ -55,7 +55,7 @@ TEST_CASE("training from files skips undecodable ones and fails with none usable
   fs::create_directories(dir);
   for (int i = 0; i < 3; ++i) {
     REQUIRE(cv::imwrite((dir / ("t" + std::to_string(i) + ".png")).string(),
-                        testing::MakeTexture(320, 240, 20 + i)));
+                        MakeTexture(320, 240, 20 + i)));
   }
   std::ofstream((dir / "broken.jpg").string()) << "not a jpeg";
   std::vector<std::string> paths;

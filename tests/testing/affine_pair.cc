@@ -4,7 +4,7 @@
 
 #include <opencv2/imgproc.hpp>
 
-#include "tests/testing/texture.h"
+#include "io/procedural_texture.h"
 
 namespace flysfm::testing {
 

@@ -5,7 +5,7 @@
 #include <opencv2/core/eigen.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "tests/testing/texture.h"
+#include "io/procedural_texture.h"
 
 namespace flysfm::testing {
 

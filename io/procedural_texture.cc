@@ -1,10 +1,10 @@
-#include "tests/testing/texture.h"
+#include "io/procedural_texture.h"
 
 #include <random>
 
 #include <opencv2/imgproc.hpp>
 
-namespace flysfm::testing {
+namespace flysfm {
 namespace {
 
 cv::Mat GreyTexture(int width, int height, std::mt19937& rng) {
@@ -55,4 +55,4 @@ cv::Mat MakeTexture(int width, int height, std::uint32_t seed, bool color) {
   return result;
 }
 
-}  // namespace flysfm::testing
+}  // namespace flysfm

@@ -1,4 +1,4 @@
-#include "tests/testing/render.h"
+#include "io/synthetic_scene.h"
 
 #include <algorithm>
 #include <cmath>
@@ -6,9 +6,9 @@
 
 #include <opencv2/imgproc.hpp>
 
-#include "tests/testing/texture.h"
+#include "io/procedural_texture.h"
 
-namespace flysfm::testing {
+namespace flysfm {
 
 double TexturedFacet::Intersect(const Eigen::Vector3d& ray_origin,
                                 const Eigen::Vector3d& direction) const {
@@ -166,4 +166,4 @@ std::vector<Eigen::Vector3d> SamplePointsOnFacets(const TexturedScene& scene,
   return points;
 }
 
-}  // namespace flysfm::testing
+}  // namespace flysfm

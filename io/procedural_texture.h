@@ -4,7 +4,7 @@
 
 #include <opencv2/core.hpp>
 
-namespace flysfm::testing {
+namespace flysfm {
 
 // A procedural texture rich in corners and blobs at several scales: the sum
 // of smoothed random noise octaves plus random discs, normalised to 8-bit.
@@ -12,4 +12,4 @@ namespace flysfm::testing {
 cv::Mat MakeTexture(int width, int height, std::uint32_t seed,
                     bool color = false);
 
-}  // namespace flysfm::testing
+}  // namespace flysfm

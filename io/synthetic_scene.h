@@ -16,7 +16,7 @@
 #include "geometry/camera.h"
 #include "geometry/rigid3d.h"
 
-namespace flysfm::testing {
+namespace flysfm {
 
 // A textured parallelogram: origin + s axis_u + t axis_v for s, t in [0, 1].
 // The texture (CV_32F, grey levels) spans it: texel (c, r) has its centre at
@@ -71,4 +71,4 @@ bool IsVisible(const TexturedScene& scene, const Camera& camera,
 std::vector<Eigen::Vector3d> SamplePointsOnFacets(const TexturedScene& scene,
                                                   int count, std::mt19937& rng);
 
-}  // namespace flysfm::testing
+}  // namespace flysfm
