@@ -174,6 +174,24 @@ std::vector<Rigid3d> P3P(const std::vector<Eigen::Vector2d>& points2D,
   return poses;
 }
 
+namespace {
+
+// beta0, beta1 (up to a common sign) from the products b00 = beta0^2,
+// b01 = beta0 beta1, b11 = beta1^2 of EPnP's approximations; b00 and b11
+// share a sign when the solution is real.
+void BetasFromProducts(double b00, double b01, double b11, Eigen::Vector4d* beta) {
+  if (b00 < 0) {
+    (*beta)(0) = std::sqrt(-b00);
+    (*beta)(1) = b11 < 0 ? std::sqrt(-b11) : 0.0;
+  } else {
+    (*beta)(0) = std::sqrt(b00);
+    (*beta)(1) = b11 > 0 ? std::sqrt(b11) : 0.0;
+  }
+  if (b01 < 0) (*beta)(0) = -(*beta)(0);
+}
+
+}  // namespace
+
 // ---------------------------------------------------------------- EPnP --
 
 std::vector<Rigid3d> EPnP(const std::vector<Eigen::Vector2d>& points2D,
@@ -260,14 +278,7 @@ std::vector<Rigid3d> EPnP(const std::vector<Eigen::Vector2d>& points2D,
     const Eigen::Vector3d B = L3.jacobiSvd(Eigen::ComputeFullU | Eigen::ComputeFullV)
                                   .solve(problem.rho);
     Eigen::Vector4d beta = Eigen::Vector4d::Zero();
-    if (B(0) < 0) {
-      beta(0) = std::sqrt(-B(0));
-      beta(1) = B(2) < 0 ? std::sqrt(-B(2)) : 0.0;
-    } else {
-      beta(0) = std::sqrt(B(0));
-      beta(1) = B(2) > 0 ? std::sqrt(B(2)) : 0.0;
-    }
-    if (B(1) < 0) beta(0) = -beta(0);
+    BetasFromProducts(B(0), B(1), B(2), &beta);
     initial_betas.push_back(beta);
   }
   {  // N = 3 approximation: b00 b01 b11 b02 b12.
@@ -275,14 +286,7 @@ std::vector<Rigid3d> EPnP(const std::vector<Eigen::Vector2d>& points2D,
     const Eigen::Matrix<double, 5, 1> B =
         L5.jacobiSvd(Eigen::ComputeFullU | Eigen::ComputeFullV).solve(problem.rho);
     Eigen::Vector4d beta = Eigen::Vector4d::Zero();
-    if (B(0) < 0) {
-      beta(0) = std::sqrt(-B(0));
-      beta(1) = B(2) < 0 ? std::sqrt(-B(2)) : 0.0;
-    } else {
-      beta(0) = std::sqrt(B(0));
-      beta(1) = B(2) > 0 ? std::sqrt(B(2)) : 0.0;
-    }
-    if (B(1) < 0) beta(0) = -beta(0);
+    BetasFromProducts(B(0), B(1), B(2), &beta);
     beta(2) = beta(0) != 0 ? B(3) / beta(0) : 0.0;
     initial_betas.push_back(beta);
   }
