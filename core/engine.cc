@@ -138,9 +138,13 @@ std::vector<ImageResult> Engine::AddImage(const Frame& frame) {
   // Matching, two-view geometry (GRIC) and LSM refinement, per candidate.
   // Until the model exists every candidate is matched: initialisation needs
   // the wide-baseline pairs, which rank low in retrieval.
+  // The new image is prepared for LSM once, not once per pair.
+  std::optional<LsmImage> lsm_image;
+  if (options_.lsm_refinement) lsm_image.emplace(state.grey);
   for (const RetrievalCandidate& candidate : candidates) {
     if (initialized_ && result.num_verified_pairs >= options_.max_verified_pairs) break;
-    MatchAndVerify(image_id, image_t(candidate.image_id), &result);
+    MatchAndVerify(image_id, image_t(candidate.image_id),
+                   lsm_image ? &*lsm_image : nullptr, &result);
   }
 
   // Initialisation while no model exists, else registration; either way the
@@ -182,7 +186,8 @@ camera_t Engine::CameraFor(int width, int height) {
   return camera_id;
 }
 
-void Engine::MatchAndVerify(image_t image_id, image_t other_id, ImageResult* result) {
+void Engine::MatchAndVerify(image_t image_id, image_t other_id,
+                            const LsmImage* lsm_image, ImageResult* result) {
   Stopwatch stopwatch;
   const ImageState& state = states_.at(image_id);
   const ImageState& other = states_.at(other_id);
@@ -216,7 +221,7 @@ void Engine::MatchAndVerify(image_t image_id, image_t other_id, ImageResult* res
 
   // LSM: refine the new image's keypoint on the candidate's window; a match
   // that does not converge is an outlier.
-  if (options_.lsm_refinement && !verified.empty()) {
+  if (lsm_image && !verified.empty()) {
     stopwatch = Stopwatch();
     Image& image = reconstruction_.image(image_id);
     const Image& other_image = reconstruction_.image(other_id);
@@ -226,7 +231,7 @@ void Engine::MatchAndVerify(image_t image_id, image_t other_id, ImageResult* res
       points.push_back(image.points2D[match.idx1].xy);
     }
     const RefineMatchesResult refined =
-        RefineMatches(other.grey, state.grey, other_points, points, options_.lsm);
+        RefineMatches(LsmImage(other.grey), *lsm_image, other_points, points, options_.lsm);
     std::vector<FeatureMatch> kept;
     for (const int i : refined.inliers) {
       image.points2D[verified[i].idx1].xy = refined.results[i].point2;

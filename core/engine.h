@@ -190,7 +190,9 @@ class Engine {
   };
 
   camera_t CameraFor(int width, int height);
-  void MatchAndVerify(image_t image_id, image_t other_id, ImageResult* result);
+  // `lsm_image`: the new image prepared for LSM refinement; null when off.
+  void MatchAndVerify(image_t image_id, image_t other_id, const LsmImage* lsm_image,
+                      ImageResult* result);
   bool TryInitialize(ImageResult* result);
   bool TryRegister(image_t image_id, ImageResult* result);
   std::vector<std::pair<point2D_t, point3D_t>> Find2D3DCorrespondences(image_t image_id);

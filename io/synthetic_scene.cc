@@ -10,6 +10,19 @@
 
 namespace flysfm {
 
+Eigen::Vector2d TexturedFacet::Coordinates(const Eigen::Vector3d& point) const {
+  // The 2x2 Gram system of the (not necessarily orthogonal) axes.
+  const Eigen::Vector3d offset = point - origin;
+  const double uu = axis_u.squaredNorm();
+  const double uv = axis_u.dot(axis_v);
+  const double vv = axis_v.squaredNorm();
+  const double du = offset.dot(axis_u);
+  const double dv = offset.dot(axis_v);
+  const double determinant = uu * vv - uv * uv;
+  return Eigen::Vector2d((vv * du - uv * dv) / determinant,
+                         (uu * dv - uv * du) / determinant);
+}
+
 double TexturedFacet::Intersect(const Eigen::Vector3d& ray_origin,
                                 const Eigen::Vector3d& direction) const {
   const Eigen::Vector3d normal = axis_u.cross(axis_v);
@@ -17,30 +30,17 @@ double TexturedFacet::Intersect(const Eigen::Vector3d& ray_origin,
   if (std::abs(along) < 1e-12) return -1.0;
   const double lambda = normal.dot(origin - ray_origin) / along;
   if (lambda <= 0.0) return -1.0;
-  // Facet coordinates of the hit, from the 2x2 Gram system.
-  const Eigen::Vector3d offset = ray_origin + lambda * direction - origin;
-  const double uu = axis_u.squaredNorm();
-  const double uv = axis_u.dot(axis_v);
-  const double vv = axis_v.squaredNorm();
-  const double du = offset.dot(axis_u);
-  const double dv = offset.dot(axis_v);
-  const double determinant = uu * vv - uv * uv;
-  const double s = (vv * du - uv * dv) / determinant;
-  const double t = (uu * dv - uv * du) / determinant;
+  const Eigen::Vector2d st = Coordinates(ray_origin + lambda * direction);
+  const double s = st.x();
+  const double t = st.y();
   if (s < 0.0 || s > 1.0 || t < 0.0 || t > 1.0) return -1.0;
   return lambda;
 }
 
 float TexturedFacet::Sample(const Eigen::Vector3d& point_on_facet) const {
-  const Eigen::Vector3d offset = point_on_facet - origin;
-  const double uu = axis_u.squaredNorm();
-  const double uv = axis_u.dot(axis_v);
-  const double vv = axis_v.squaredNorm();
-  const double du = offset.dot(axis_u);
-  const double dv = offset.dot(axis_v);
-  const double determinant = uu * vv - uv * uv;
-  const double s = (vv * du - uv * dv) / determinant;
-  const double t = (uu * dv - uv * du) / determinant;
+  const Eigen::Vector2d st = Coordinates(point_on_facet);
+  const double s = st.x();
+  const double t = st.y();
   // Texel coordinates, clamped so that bilinear reads stay inside.
   const double x =
       std::clamp(s * texture.cols - 0.5, 0.0, texture.cols - 1.001);

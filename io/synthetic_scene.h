@@ -32,6 +32,8 @@ struct TexturedFacet {
   double Intersect(const Eigen::Vector3d& ray_origin,
                    const Eigen::Vector3d& direction) const;
   float Sample(const Eigen::Vector3d& point_on_facet) const;
+  // Facet coordinates (s, t) of a point on the facet's plane.
+  Eigen::Vector2d Coordinates(const Eigen::Vector3d& point) const;
   // A point at facet coordinates (s, t).
   Eigen::Vector3d At(double s, double t) const {
     return origin + s * axis_u + t * axis_v;
