@@ -25,13 +25,17 @@ function(flysfm_add_module_tests module)
       target_link_libraries(${target} PRIVATE flysfm_test_regression_main
                             ${ARG_DEPS})
       set(label regression)
+      # The long runs on real data start first, so that `ctest -j` overlaps
+      # them with the many short unit tests instead of ending on them.
+      set(cost 1000)
     else()
       target_link_libraries(${target} PRIVATE flysfm_test_main ${ARG_DEPS})
       set(label unit)
+      set(cost 1)
     endif()
     catch_discover_tests(${target}
       TEST_PREFIX "${module}/${stem}: "
-      PROPERTIES LABELS ${label} SKIP_RETURN_CODE 77
+      PROPERTIES LABELS ${label} SKIP_RETURN_CODE 77 COST ${cost}
       DISCOVERY_TIMEOUT 30)
   endforeach()
 endfunction()

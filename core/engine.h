@@ -8,6 +8,7 @@
 // cannot register yet wait in a pending pool and are retried as the model
 // grows. Single-threaded and deterministic for a given input order.
 
+#include <list>
 #include <map>
 #include <memory>
 #include <optional>
@@ -82,31 +83,50 @@ struct ImageResult {
   StageTimes times;
 };
 
+// A frame decoded, in grey, and its features: the part of AddImage that
+// needs nothing of the model. The ingest side may prepare the next image on
+// the second core while the engine works on this one (ARCHITECTURE.md).
+struct PreparedFrame {
+  Frame frame;    // name and times; the encoded bytes are released
+  cv::Mat image;  // BGR; empty when decoding failed
+  cv::Mat grey;
+  std::string error;  // why decoding failed; empty on success
+  std::optional<double> exif_focal_length_px;
+  FeatureSet features;
+  double decode_ms = 0;
+  double features_ms = 0;
+};
+
 class Engine {
  public:
   struct Options {
-    SiftOptions sift;
+    SiftOptions sift = DefaultSiftOptions();
     ImageRetrieverOptions retrieval;
     MatchOptions matching;
     // Candidates are matched in retrieval order until this many pairs pass
     // two-view geometry: matching is the costliest stage (the paper's Table
-    // II), and past a dozen overlapping views further pairs add little to
-    // registration or triangulation. Retrieval's top-N bounds the search.
-    int max_verified_pairs = 12;
+    // II), and past eight overlapping views further pairs add little to
+    // registration or triangulation (fr1_xyz: the same ATE with 8 as with
+    // 12). Retrieval's top-N bounds the search.
+    int max_verified_pairs = 8;
     TwoViewGeometryOptions two_view;
     LsmOptions lsm;
     // The paper's LSM steps, each switchable for ablations.
     bool lsm_refinement = true;
     bool lsm_densification = true;
     DensifyOptions densify;
+    // LSM images (pyramids) are built once per image and kept, most recently
+    // used first, within this budget: a new image meets mostly recent ones.
+    int lsm_cache_megabytes = 512;
     // Densification looks for the points of this many registered neighbours
     // (those sharing the most verified matches), as the local BA's first
     // ripple does.
     int densify_max_references = 8;
     // At most this many points are tried per image, longest tracks first:
     // enough to steady the pose, while the per-image observation count (and
-    // with it every later BA) stays bounded.
-    int densify_max_candidates = 300;
+    // with it every later BA) stays bounded. On fr1_xyz 300 cost 25 ms more
+    // of local BA per image than 150, for the same ATE.
+    int densify_max_candidates = 150;
 
     // Initialisation: the verified pair with the most inliers among those
     // with at least `init_min_num_inliers` and a median triangulation angle
@@ -125,13 +145,17 @@ class Engine {
     TriangulationOptions triangulation = DefaultTriangulationOptions();
 
     // Local BA over the hierarchical association tree (paper Sect. III-D).
-    HierarchicalAssociationTree::Options ba_tree;
+    HierarchicalAssociationTree::Options ba_tree = DefaultTreeOptions();
     // false: the same images in a plain local BA (k = 1, nothing fixed but
     // the images outside the tree), for the ablation.
     bool hierarchical_weights = true;
     // Local BA after each image: a few iterations from a good start converge
     // (the block was adjusted when its images registered).
     BundleAdjuster::Options ba = LocalBundleOptions();
+    // Per point, at most this many observations from images held constant
+    // (the fixed ripple and images outside the tree; 0: all). Video tracks
+    // run over dozens of frames; a few fixed views pin a point as well.
+    int ba_max_constant_observers = 2;
     // The global BA of Finish().
     BundleAdjuster::Options global_ba;
 
@@ -140,9 +164,10 @@ class Engine {
     double filter_max_error_px = 4.0;
     double filter_min_tri_angle_deg = 1.5;
 
-    // Unknown intrinsics: SIMPLE_RADIAL with this focal length in units of
-    // the image's longer side (1.2: a 45 deg field of view, typical of the
-    // normal lenses photogrammetry uses), refined in every BA.
+    // Unknown intrinsics: SIMPLE_RADIAL with the focal length from the
+    // image's EXIF, else this many times the image's longer side (1.2: a
+    // 45 deg field of view, typical of the normal lenses photogrammetry
+    // uses); refined in every BA either way.
     double unknown_focal_factor = 1.2;
 
     // Finish() runs a global BA over everything.
@@ -151,6 +176,8 @@ class Engine {
     bool Check() const;
 
     static BundleAdjuster::Options LocalBundleOptions();
+    static SiftOptions DefaultSiftOptions();
+    static HierarchicalAssociationTree::Options DefaultTreeOptions();
     static TriangulationOptions DefaultTriangulationOptions();
   };
 
@@ -161,9 +188,17 @@ class Engine {
   explicit Engine(const Options& options, std::optional<Camera> camera = std::nullopt,
                   std::shared_ptr<const RetrievalModel> retrieval_model = nullptr);
 
+  // Decoding and feature extraction with `options`; thread-safe, so it may
+  // run on another thread than the engine's.
+  static PreparedFrame Prepare(const Frame& frame, const Options& options);
+
   // Processes one fly-in image. Returns its result first, then one for each
-  // pending image that registered thanks to it.
+  // pending image that registered thanks to it. Its times include decoding
+  // and features wherever they ran; `times.total` is their sum.
   std::vector<ImageResult> AddImage(const Frame& frame);
+  std::vector<ImageResult> AddImage(PreparedFrame prepared);
+
+  const Options& options() const { return options_; }
 
   // End of a batch: pending images get a last try, then the optional global
   // BA. Returns results for images registered by the last try.
@@ -189,10 +224,19 @@ class Engine {
     TwoViewGeometry geometry;  // cam2_from_cam1
   };
 
-  camera_t CameraFor(int width, int height);
-  // `lsm_image`: the new image prepared for LSM refinement; null when off.
-  void MatchAndVerify(image_t image_id, image_t other_id, const LsmImage* lsm_image,
+  // The camera shared by the images of this size; created with the first
+  // one (and its EXIF focal length, when intrinsics are unknown).
+  camera_t CameraFor(int width, int height, std::optional<double> exif_focal_length_px);
+  // `lsm_refined`: per keypoint of the new image, whether LSM has refined it
+  // already (null: no LSM refinement). A keypoint is refined once, against
+  // the first (most similar) candidate whose window it converges on; later
+  // pairs keep its refined position.
+  void MatchAndVerify(image_t image_id, image_t other_id, std::vector<char>* lsm_refined,
                       ImageResult* result);
+  // The image's LSM pyramid (densification's levels; level 0 for refinement),
+  // from the cache or built and cached. The levels share pixels with the
+  // cache (cv::Mat), so the copy is cheap.
+  std::vector<LsmImage> LsmPyramid(image_t image_id);
   bool TryInitialize(ImageResult* result);
   bool TryRegister(image_t image_id, ImageResult* result);
   std::vector<std::pair<point2D_t, point3D_t>> Find2D3DCorrespondences(image_t image_id);
@@ -213,6 +257,14 @@ class Engine {
   ImageRetriever retriever_;
   MatchStore matches_;
   std::unordered_map<image_t, ImageState> states_;
+  struct CachedPyramid {
+    std::vector<LsmImage> levels;
+    std::list<image_t>::iterator recency;
+    std::size_t bytes = 0;
+  };
+  std::unordered_map<image_t, CachedPyramid> lsm_pyramids_;
+  std::list<image_t> lsm_recency_;  // most recently used first
+  std::size_t lsm_cache_bytes_ = 0;
   std::vector<PairGeometry> pair_geometries_;
   std::vector<image_t> pending_;
   std::map<std::pair<int, int>, camera_t> camera_by_size_;

@@ -9,8 +9,10 @@ namespace flysfm {
 namespace {
 
 // Builds the problem over `weights`' images, solves it and writes back.
+// `max_constant_observers`: per point, at most this many observations from
+// constant images (0: all).
 SceneBundleResult Adjust(const std::unordered_map<image_t, double>& weights,
-                         const BundleAdjuster::Options& options,
+                         const BundleAdjuster::Options& options, int max_constant_observers,
                          Reconstruction* reconstruction) {
   BundleProblem problem;
   std::map<camera_t, int> camera_index;
@@ -57,11 +59,17 @@ SceneBundleResult Adjust(const std::unordered_map<image_t, double>& weights,
   for (std::size_t p = 0; p < point_ids.size(); ++p) {
     const Point3D& point = reconstruction->point3D(point_ids[p]);
     problem.points.push_back(point.xyz);
+    int num_constant = 0;
     for (const TrackElement& element : point.track) {
       const auto weight_it = weights.find(element.image_id);
-      add_image(element.image_id, weight_it == weights.end()
-                                      ? std::numeric_limits<double>::infinity()
-                                      : weight_it->second);
+      const double weight = weight_it == weights.end()
+                                ? std::numeric_limits<double>::infinity()
+                                : weight_it->second;
+      if (std::isinf(weight) && max_constant_observers > 0 &&
+          num_constant++ >= max_constant_observers) {
+        continue;
+      }
+      add_image(element.image_id, weight);
       problem.observations.push_back(
           {image_index.at(element.image_id), int(p),
            reconstruction->image(element.image_id).points2D[element.point2D_idx].xy});
@@ -92,15 +100,16 @@ SceneBundleResult Adjust(const std::unordered_map<image_t, double>& weights,
 
 SceneBundleResult AdjustLocalBundle(const std::unordered_map<image_t, double>& weights,
                                     const BundleAdjuster::Options& options,
+                                    int max_constant_observers,
                                     Reconstruction* reconstruction) {
-  return Adjust(weights, options, reconstruction);
+  return Adjust(weights, options, max_constant_observers, reconstruction);
 }
 
 SceneBundleResult AdjustGlobalBundle(const BundleAdjuster::Options& options,
                                      Reconstruction* reconstruction) {
   std::unordered_map<image_t, double> weights;
   for (const image_t id : reconstruction->RegisteredImageIds()) weights[id] = 1.0;
-  return Adjust(weights, options, reconstruction);
+  return Adjust(weights, options, 0, reconstruction);
 }
 
 }  // namespace flysfm

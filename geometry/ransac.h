@@ -123,12 +123,24 @@ class RansacRunner {
                        static_cast<int>(std::ceil(options_.min_inlier_ratio * num_data_)),
                        num_data_, kSampleSize, options_.confidence)));
     }
+    // A small set has few distinct samples: draw each once and stop, rather
+    // than repeat them up to max_iterations when none yields a model.
+    const long long num_distinct = NumDistinctSamples(max_trials);
+    const bool enumerate = num_distinct <= max_trials;
+    if (enumerate) max_trials = static_cast<int>(num_distinct);
     const int trial_cap = max_trials;
     std::vector<int> sample(kSampleSize);
+    std::vector<int> combination(kSampleSize);
+    for (int i = 0; i < kSampleSize; ++i) combination[i] = i;
     std::vector<Model> models;
     int trial = 0;
     for (; trial < max_trials; ++trial) {
-      DrawSample(&sample);
+      if (enumerate) {
+        for (int i = 0; i < kSampleSize; ++i) sample[i] = order_[combination[i]];
+        NextCombination(&combination);
+      } else {
+        DrawSample(&sample);
+      }
       models.clear();
       estimator_.MinimalSolve(sample, &models);
       bool improved = false;
@@ -183,6 +195,27 @@ class RansacRunner {
   }
 
  private:
+  // C(num_data, kSampleSize), or limit + 1 when that is larger.
+  long long NumDistinctSamples(int limit) const {
+    // C(n, k) = C(n, n - k), and C(n, i) grows with i up to n / 2.
+    const int k = std::min(kSampleSize, num_data_ - kSampleSize);
+    long long count = 1;
+    for (int i = 0; i < k; ++i) {
+      count = count * (num_data_ - i) / (i + 1);
+      if (count > limit) return static_cast<long long>(limit) + 1;
+    }
+    return count;
+  }
+
+  // The next k-subset of 0..num_data-1 in lexicographic order.
+  void NextCombination(std::vector<int>* combination) const {
+    int i = kSampleSize - 1;
+    while (i >= 0 && (*combination)[i] == num_data_ - kSampleSize + i) --i;
+    if (i < 0) return;
+    ++(*combination)[i];
+    for (int j = i + 1; j < kSampleSize; ++j) (*combination)[j] = (*combination)[j - 1] + 1;
+  }
+
   void DrawSample(std::vector<int>* sample) {
     std::uniform_int_distribution<int> pick(0, num_data_ - 1);
     for (int i = 0; i < kSampleSize; ++i) {

@@ -11,10 +11,13 @@ namespace {
 
 constexpr double kRankTolerance = 1e-12;
 
-std::optional<Eigen::Vector3d> SolveDlt(const Eigen::MatrixXd& A) {
+// Fixed-size for the two-view case, which RANSAC triangulation calls per
+// sample: a dynamic SVD there costs more than the rest of the sample.
+template <typename Matrix>
+std::optional<Eigen::Vector3d> SolveDlt(const Matrix& A) {
   if (!A.allFinite()) return std::nullopt;
-  Eigen::JacobiSVD<Eigen::MatrixXd> svd(A, Eigen::ComputeFullV);
-  const Eigen::VectorXd& sigma = svd.singularValues();
+  Eigen::JacobiSVD<Matrix> svd(A, Eigen::ComputeFullV);
+  const auto& sigma = svd.singularValues();
   // A second (near-)zero singular value: the rays coincide, the point is
   // anywhere on them.
   if (!(sigma(2) > kRankTolerance * sigma(0))) return std::nullopt;

@@ -9,15 +9,15 @@
 namespace flysfm {
 namespace {
 
-// Among the reference observations whose window fits in their image (with
-// `margin` pixels around the point), the one whose viewing ray to the point
-// is closest in direction to the new image's; -1 when none fits.
-int ClosestObservation(const DensifyCandidate& candidate,
-                       const std::vector<LsmView>& references,
-                       const Eigen::Vector3d& new_center, double margin) {
+// The reference observations whose window fits in their image (with
+// `margin` pixels around the point), those whose viewing ray to the point is
+// closest in direction to the new image's first.
+std::vector<int> ObservationsByDirection(const DensifyCandidate& candidate,
+                                         const std::vector<LsmView>& references,
+                                         const Eigen::Vector3d& new_center,
+                                         double margin) {
   const Eigen::Vector3d new_ray = (candidate.xyz - new_center).normalized();
-  int best = -1;
-  double best_cosine = -std::numeric_limits<double>::infinity();
+  std::vector<std::pair<double, int>> ranked;
   for (size_t i = 0; i < candidate.observations.size(); ++i) {
     const LsmView& reference = references[candidate.observations[i].view];
     const Eigen::Vector2d& point = candidate.observations[i].point2D;
@@ -29,13 +29,12 @@ int ClosestObservation(const DensifyCandidate& candidate,
     const Eigen::Vector3d ray =
         (candidate.xyz - ProjectionCenter(reference.cam_from_world))
             .normalized();
-    const double cosine = ray.dot(new_ray);
-    if (cosine > best_cosine) {
-      best_cosine = cosine;
-      best = static_cast<int>(i);
-    }
+    ranked.emplace_back(-ray.dot(new_ray), static_cast<int>(i));
   }
-  return best;
+  std::sort(ranked.begin(), ranked.end());
+  std::vector<int> order;
+  for (const auto& entry : ranked) order.push_back(entry.second);
+  return order;
 }
 
 // d pixel / d point_in_cam, by central differences so that lens distortion
@@ -117,7 +116,8 @@ Rigid3d CorrectPose(const Camera& camera, const Rigid3d& cam_from_world,
 
 bool DensifyOptions::Check() const {
   return lsm.Check() && num_pyramid_levels >= 1 && num_pyramid_levels <= 8 &&
-         max_displacement_px > 0 && min_depth >= 0;
+         max_displacement_px > 0 && max_references_per_point >= 1 &&
+         window_shift_px >= 0 && max_relative_sigma0 > 0 && min_depth >= 0;
 }
 
 Eigen::Matrix2d PredictAffine(const LsmView& reference,
@@ -167,13 +167,31 @@ DensifyResult Densify(const LsmView& image,
     coarse_matchers.emplace_back(coarse);
   }
 
-  // Pass 1: project, pick the reference, predict the window's shape and,
-  // coarse to fine down to level 1, estimate where each point lies.
+  // The window's start shape for one reference observation.
+  const auto start_affine = [&](const DensifyCandidate& candidate,
+                                const DensifyObservation& observation) {
+    if (!options.predict_affine) return Eigen::Matrix2d::Identity().eval();
+    const Eigen::Matrix2d affine =
+        PredictAffine(references[observation.view], observation.point2D,
+                      candidate.xyz, image);
+    if (!affine.allFinite() || !(affine.determinant() > 0.0)) {
+      return Eigen::Matrix2d::Identity().eval();
+    }
+    return affine;
+  };
+
+  const auto in_image = [&](const Eigen::Vector2d& pixel, double margin) {
+    return pixel.x() >= -margin && pixel.y() >= -margin &&
+           pixel.x() <= image.camera.width - 1.0 + margin &&
+           pixel.y() <= image.camera.height - 1.0 + margin;
+  };
+
+  // Pass 1: project, rank the references and, coarse to fine down to level
+  // 1 from the closest one, estimate where each point lies.
   struct Attempt {
     int candidate;
-    const DensifyObservation* observation;
+    std::vector<int> observations;  // by viewing direction, closest first
     Eigen::Vector2d projection;
-    Eigen::Matrix2d affine;
   };
   std::vector<Attempt> attempts;
   std::vector<Eigen::Vector3d> sample_points;
@@ -196,33 +214,28 @@ DensifyResult Densify(const LsmView& image,
       ++result.num_behind;
       continue;
     }
+    // Within the pose error of the image: whether it is inside is decided
+    // with the corrected pose.
     const Eigen::Vector2d projection = image.camera.ImgFromCam(in_cam);
-    if (!(projection.x() >= 0.0 && projection.y() >= 0.0 &&
-          projection.x() <= image.camera.width - 1.0 &&
-          projection.y() <= image.camera.height - 1.0)) {
+    if (!in_image(projection, options.max_displacement_px)) {
       ++result.num_outside;
       continue;
     }
-    const int closest = ClosestObservation(candidate, references, new_center,
-                                           options.lsm.window_size / 2 + 2);
-    if (closest < 0) {
+    std::vector<int> ranked = ObservationsByDirection(
+        candidate, references, new_center, options.lsm.window_size / 2 + 2);
+    if (ranked.empty()) {
       ++result.num_no_reference;
       continue;
     }
-    const DensifyObservation& observation = candidate.observations[closest];
-    const LsmView& reference = references[observation.view];
-    Eigen::Matrix2d affine = Eigen::Matrix2d::Identity();
-    if (options.predict_affine) {
-      affine =
-          PredictAffine(reference, observation.point2D, candidate.xyz, image);
-      if (!affine.allFinite() || !(affine.determinant() > 0.0)) {
-        affine = Eigen::Matrix2d::Identity();
-      }
+    if (static_cast<int>(ranked.size()) > options.max_references_per_point) {
+      ranked.resize(options.max_references_per_point);
     }
-    attempts.push_back({static_cast<int>(c), &observation, projection, affine});
+    const DensifyObservation& observation = candidate.observations[ranked[0]];
+    const LsmView& reference = references[observation.view];
+    attempts.push_back({static_cast<int>(c), std::move(ranked), projection});
 
     Eigen::Vector2d estimate = projection;
-    Eigen::Matrix2d coarse_affine = affine;
+    Eigen::Matrix2d coarse_affine = start_affine(candidate, observation);
     bool found = false;
     for (int level = options.num_pyramid_levels - 1; level >= 1; --level) {
       const double scale = 1.0 / (1 << level);
@@ -248,24 +261,103 @@ DensifyResult Densify(const LsmView& image,
       CorrectPose(image.camera, image.cam_from_world, sample_points,
                   sample_positions, options.lsm.max_shift_px);
 
-  // Pass 2: full-resolution LSM from the corrected start decides.
+  // Pass 2: full-resolution LSM from the corrected pose's projection
+  // decides.
   LsmMatcher matcher(options.lsm);
-  for (const Attempt& attempt : attempts) {
-    const LsmView& reference = references[attempt.observation->view];
-    const LsmResult fine = matcher.Match(
-        reference.pyramid[0], attempt.observation->point2D, image.pyramid[0],
-        image.camera.ImgFromCam(corrected * candidates[attempt.candidate].xyz),
-        attempt.affine);
+  std::vector<Eigen::Vector2d> starts;
+  {
+    std::vector<Attempt> inside;
+    for (Attempt& attempt : attempts) {
+      const Eigen::Vector2d start = image.camera.ImgFromCam(
+          corrected * candidates[attempt.candidate].xyz);
+      if (!in_image(start, 0.0)) {
+        ++result.num_outside;
+        continue;
+      }
+      inside.push_back(std::move(attempt));
+      starts.push_back(start);
+    }
+    attempts = std::move(inside);
+  }
+  const auto match = [&](size_t a, int rank,
+                         const Eigen::Vector2d& window_offset) {
+    const DensifyCandidate& candidate = candidates[attempts[a].candidate];
+    const DensifyObservation& observation =
+        candidate.observations[attempts[a].observations[rank]];
+    return matcher.Match(references[observation.view].pyramid[0],
+                         observation.point2D, image.pyramid[0], starts[a],
+                         start_affine(candidate, observation), window_offset);
+  };
+  // First the closest reference's window centred on the point, for every
+  // point: the median sigma0 of those that converge is the residual a
+  // window on one surface leaves in this image (noise, blur, interpolation).
+  std::vector<LsmResult> centred;
+  centred.reserve(attempts.size());
+  std::vector<double> sigmas;
+  for (size_t a = 0; a < attempts.size(); ++a) {
+    centred.push_back(match(a, 0, Eigen::Vector2d::Zero()));
+    if (centred.back().Converged()) sigmas.push_back(centred.back().sigma0);
+  }
+  // Too few for a median: no bound, and no shifted windows, which need it.
+  constexpr int kMinForMedian = 10;
+  const bool bounded = static_cast<int>(sigmas.size()) >= kMinForMedian;
+  double max_sigma0 = std::numeric_limits<double>::infinity();
+  if (bounded) {
+    std::nth_element(sigmas.begin(), sigmas.begin() + sigmas.size() / 2,
+                     sigmas.end());
+    max_sigma0 = options.max_relative_sigma0 * sigmas[sigmas.size() / 2];
+  }
+  // Then, until a window converges with a residual within that bound, the
+  // other references' centred windows and the shifted windows.
+  const double shift =
+      std::min(options.window_shift_px,
+               static_cast<double>(options.lsm.window_size / 2));
+  std::vector<Eigen::Vector2d> window_offsets = {Eigen::Vector2d::Zero()};
+  if (bounded && shift > 0.0) {
+    for (const double dx : {-shift, 0.0, shift}) {
+      for (const double dy : {-shift, 0.0, shift}) {
+        if (dx != 0.0 || dy != 0.0) window_offsets.emplace_back(dx, dy);
+      }
+    }
+  }
+  for (size_t a = 0; a < attempts.size(); ++a) {
+    const Attempt& attempt = attempts[a];
+    const int num_ranks = static_cast<int>(attempt.observations.size());
+    LsmResult fine = centred[a];
+    int used = -1;
+    bool imprecise = false;
+    for (const Eigen::Vector2d& window_offset : window_offsets) {
+      for (int rank = 0; rank < num_ranks && used < 0; ++rank) {
+        if (rank > 0 || window_offset != Eigen::Vector2d::Zero()) {
+          fine = match(a, rank, window_offset);
+        }
+        if (!fine.Converged()) continue;
+        if (fine.sigma0 > max_sigma0) {
+          imprecise = true;
+          continue;
+        }
+        used = rank;
+      }
+      if (used >= 0) break;
+    }
+    if (used < 0) {
+      if (imprecise) {
+        ++result.num_imprecise;
+      } else {
+        result.lsm_counts.Add(fine.status);
+      }
+      continue;
+    }
     result.lsm_counts.Add(fine.status);
-    if (!fine.Converged()) continue;
     if ((fine.point2 - attempt.projection).norm() >
         options.max_displacement_px) {
       ++result.num_displaced;
       continue;
     }
-
+    const DensifyObservation& observation =
+        candidates[attempt.candidate].observations[attempt.observations[used]];
     result.matches.push_back(
-        {attempt.candidate, attempt.observation->view, fine.point2, fine});
+        {attempt.candidate, observation.view, fine.point2, fine});
   }
   return result;
 }

@@ -2,9 +2,10 @@
 
 // LSM densification (the paper's Sect. III-C-3): 3D points that a newly
 // registered image should see but has no observation of are projected with
-// its initial pose and their 2D positions found by LSM against the
-// reference observation with the closest viewing direction. Accepted
-// results are new 2D-3D correspondences for the pose re-estimation.
+// its initial pose and their 2D positions found by LSM against their
+// reference observations, the closest viewing direction first (see
+// docs/lsm.md). Accepted results are new 2D-3D correspondences for the pose
+// re-estimation.
 
 #include <vector>
 
@@ -55,6 +56,25 @@ struct DensifyOptions {
   // induced by a plane through the point, fronto-parallel to the reference
   // camera; identity otherwise.
   bool predict_affine = true;
+  // Reference observations tried per point at full resolution, closest
+  // viewing direction first, until one is accepted: a window that fails from
+  // one reference (an occluding edge beside the point there, a slant the
+  // fronto-parallel prediction misses) often matches from another.
+  int max_references_per_point = 3;
+  // When no centred window is accepted, windows shifted by this much
+  // (pixels) along the image axes and diagonals are tried: one on the
+  // point's side of a depth edge, or reaching texture beside a flat patch,
+  // often converges. At most the window's radius (larger values are
+  // clamped), so that the point stays inside the window; its match follows
+  // from the window's affine map. 0 disables.
+  double window_shift_px = 7.0;
+  // A converged window is accepted only if its sigma0 is at most this many
+  // times the median sigma0 of the image's centred windows: a window
+  // straddling two surfaces (or, shifted, reaching an occluder) converges
+  // to a compromise of the two motions and leaves a residual several times
+  // that of a window on one surface. With fewer than 10 converged centred
+  // windows there is no median: no bound, and no shifted windows.
+  double max_relative_sigma0 = 3.0;
   // Candidates must lie at least this far in front of the new camera,
   // relative to their distance: grazing or behind-camera points are skipped.
   double min_depth = 1e-6;
@@ -72,11 +92,16 @@ struct DensifyMatch {
 struct DensifyResult {
   std::vector<DensifyMatch> matches;  // accepted, in candidate order
   int num_candidates = 0;
-  int num_behind = 0;          // behind the new camera
-  int num_outside = 0;         // projected outside the new image
-  int num_no_reference = 0;    // no reference observation whose window fits
-  int num_displaced = 0;       // converged beyond max_displacement_px
-  LsmStatusCounts lsm_counts;  // full-resolution outcomes of attempted points
+  int num_behind = 0;  // behind the new camera
+  // Projected outside the new image: beyond max_displacement_px with the
+  // initial pose, or at all with the corrected one.
+  int num_outside = 0;
+  int num_no_reference = 0;  // no reference observation whose window fits
+  int num_displaced = 0;     // converged beyond max_displacement_px
+  int num_imprecise = 0;     // converged only above the sigma0 bound
+  // Full-resolution outcomes of the attempted points not counted as
+  // imprecise: of the accepted window, else of the last one tried.
+  LsmStatusCounts lsm_counts;
 };
 
 // `image` is the new image with its initial pose; `references` the

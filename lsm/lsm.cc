@@ -15,54 +15,35 @@
 namespace flysfm {
 namespace {
 
-// Parameter order: a0 a1 a2 b0 b1 b2 h0 h1.
+// Order of the parameters of a step: the template-side affine increment
+// a0 a1 a2 b0 b1 b2 (x -> (a0 + (1 + a1) u + a2 v, b0 + b1 u + (1 + b2) v)),
+// then the radiometric increment g0 g1.
 using Vector8d = Eigen::Matrix<double, 8, 1>;
 using Matrix8d = Eigen::Matrix<double, 8, 8>;
-enum : int { kA0 = 0, kA1, kA2, kB0, kB1, kB2, kH0, kH1 };
-
-Eigen::Matrix2d LinearPart(const Vector8d& p) {
-  Eigen::Matrix2d a;
-  a << p[kA1], p[kA2], p[kB1], p[kB2];
-  return a;
-}
-
-// An interpolated value and its derivatives along x and y.
-struct Interpolated {
-  float value;
-  float dx;
-  float dy;
-};
+enum : int { kA0 = 0, kA1, kA2, kB0, kB1, kB2, kG0, kG1 };
 
 // Bilinear interpolation; the caller guarantees 0 <= x < width - 1 and
 // 0 <= y < height - 1.
-inline Interpolated Bilinear(const float* data, int stride, double x,
-                             double y) {
+inline float Bilinear(const float* data, int stride, double x, double y) {
   const int x0 = static_cast<int>(x);
   const int y0 = static_cast<int>(y);
   const float fx = static_cast<float>(x - x0);
   const float fy = static_cast<float>(y - y0);
   const float* p = data + static_cast<std::ptrdiff_t>(y0) * stride + x0;
-  const float top_dx = p[1] - p[0];
-  const float bottom_dx = p[stride + 1] - p[stride];
-  const float top = p[0] + fx * top_dx;
-  const float bottom = p[stride] + fx * bottom_dx;
-  return {top + fy * (bottom - top), top_dx + fy * (bottom_dx - top_dx),
-          bottom - top};
+  const float top = p[0] + fx * (p[1] - p[0]);
+  const float bottom = p[stride] + fx * (p[stride + 1] - p[stride]);
+  return top + fy * (bottom - top);
 }
 
 // Cubic B-spline weights of the taps at -1, 0, 1, 2 for a fraction t in
-// [0, 1), and their derivatives by t.
-inline void SplineWeights(float t, float w[4], float dw[4]) {
+// [0, 1).
+inline void SplineWeights(float t, float w[4]) {
   const float s = 1.f - t;
   const float t2 = t * t;
   w[0] = s * s * s * (1.f / 6.f);
   w[1] = (2.f / 3.f) - t2 + 0.5f * t2 * t;
   w[3] = t2 * t * (1.f / 6.f);
   w[2] = 1.f - w[0] - w[1] - w[3];
-  dw[0] = -0.5f * s * s;
-  dw[1] = -2.f * t + 1.5f * t2;
-  dw[3] = 0.5f * t2;
-  dw[2] = -dw[0] - dw[1] - dw[3];
 }
 
 // Four floats in one SIMD register (GCC/Clang vector extension; SSE on
@@ -77,26 +58,21 @@ inline Float4 Load4(const float* p) {
 
 inline float Sum4(Float4 v) { return (v[0] + v[1]) + (v[2] + v[3]); }
 
-// Cubic B-spline interpolation from prefiltered coefficients, with the
-// interpolant's exact derivatives; the caller guarantees 1 <= x < width - 2
-// and 1 <= y < height - 2.
-inline Interpolated CubicSpline(const float* coefficients, int stride, double x,
-                                double y) {
+// Cubic B-spline interpolation from prefiltered coefficients; the caller
+// guarantees 1 <= x < width - 2 and 1 <= y < height - 2.
+inline float CubicSpline(const float* coefficients, int stride, double x,
+                         double y) {
   const int x0 = static_cast<int>(x);
   const int y0 = static_cast<int>(y);
-  float wx[4], dwx[4], wy[4], dwy[4];
-  SplineWeights(static_cast<float>(x - x0), wx, dwx);
-  SplineWeights(static_cast<float>(y - y0), wy, dwy);
+  float wx[4], wy[4];
+  SplineWeights(static_cast<float>(x - x0), wx);
+  SplineWeights(static_cast<float>(y - y0), wy);
   const float* p =
       coefficients + static_cast<std::ptrdiff_t>(y0 - 1) * stride + x0 - 1;
-  const Float4 r0 = Load4(p);
-  const Float4 r1 = Load4(p + stride);
-  const Float4 r2 = Load4(p + 2 * stride);
-  const Float4 r3 = Load4(p + 3 * stride);
-  const Float4 rows = wy[0] * r0 + wy[1] * r1 + wy[2] * r2 + wy[3] * r3;
-  const Float4 rows_dy = dwy[0] * r0 + dwy[1] * r1 + dwy[2] * r2 + dwy[3] * r3;
-  return {Sum4(rows * Load4(wx)), Sum4(rows * Load4(dwx)),
-          Sum4(rows_dy * Load4(wx))};
+  const Float4 rows = wy[0] * Load4(p) + wy[1] * Load4(p + stride) +
+                      wy[2] * Load4(p + 2 * stride) +
+                      wy[3] * Load4(p + 3 * stride);
+  return Sum4(rows * Load4(wx));
 }
 
 // Pixels an interpolator reads beyond the sample's floor: before, after.
@@ -152,23 +128,18 @@ bool InsideForSampling(const LsmImage& image, const Eigen::Vector2d& center,
   return true;
 }
 
-// Samples (2 reach + 1)^2 points of the affinely mapped grid in row order:
-// values and image derivatives.
+// Samples (2 reach + 1)^2 points of the affinely mapped grid in row order.
 template <typename Interpolator>
 void SampleGridWith(const float* data, int stride,
                     const Eigen::Vector2d& center,
                     const Eigen::Matrix2d& linear, int reach,
-                    Interpolator interpolate, float* values, float* dx,
-                    float* dy) {
+                    Interpolator interpolate, float* values) {
   int k = 0;
   for (int v = -reach; v <= reach; ++v) {
     double x = center.x() - reach * linear(0, 0) + v * linear(0, 1);
     double y = center.y() - reach * linear(1, 0) + v * linear(1, 1);
     for (int u = -reach; u <= reach; ++u, ++k) {
-      const Interpolated sample = interpolate(data, stride, x, y);
-      values[k] = sample.value;
-      dx[k] = sample.dx;
-      dy[k] = sample.dy;
+      values[k] = interpolate(data, stride, x, y);
       x += linear(0, 0);
       y += linear(1, 0);
     }
@@ -285,11 +256,17 @@ double NormalizedCrossCorrelation(const Eigen::Ref<const Eigen::VectorXf>& a,
   return covariance / denominator;
 }
 
-struct LsmMatcher::Evaluation {
-  Matrix8d normal;
-  Vector8d gradient;  // J^T r
-  double cost = 0.0;  // r^T r
-  int buffer = 0;     // which warped_ holds its window
+// The current estimate: window offset (u, v) lies at translation +
+// linear (u, v) in image 2, and image 2 = offset + gain * template there.
+struct LsmMatcher::Warp {
+  Eigen::Vector2d translation;
+  Eigen::Matrix2d linear;
+  double offset = 0.0;
+  double gain = 1.0;
+
+  Eigen::Vector2d Map(const Eigen::Vector2d& window) const {
+    return translation + linear * window;
+  }
 };
 
 LsmMatcher::LsmMatcher(const LsmOptions& options) : options_(options) {
@@ -300,81 +277,47 @@ LsmMatcher::LsmMatcher(const LsmOptions& options) : options_(options) {
   template_.resize(num_pixels_);
   template_border_.resize(bordered);
   for (Eigen::VectorXf& buffer : warped_) buffer.resize(num_pixels_);
-  warped_dx_.resize(num_pixels_);
-  warped_dy_.resize(num_pixels_);
   jacobian_.resize(num_pixels_, 8);
   residuals_.resize(num_pixels_);
 }
 
-bool LsmMatcher::Sample(const LsmImage& image, const Vector8d& params,
-                        int buffer, LsmInterpolation interpolation) {
-  const Eigen::Vector2d center(params[kA0], params[kB0]);
-  const Eigen::Matrix2d linear = LinearPart(params);
-  if (!InsideForSampling(image, center, linear, radius_, interpolation)) {
+bool LsmMatcher::Sample(const LsmImage& image, const Warp& warp, int buffer) {
+  if (!InsideForSampling(image, warp.translation, warp.linear, radius_,
+                         options_.interpolation)) {
     return false;
   }
   float* values = warped_[buffer].data();
-  if (interpolation == LsmInterpolation::kCubicSpline) {
-    SampleGridWith(image.spline_coefficients(), image.width(), center, linear,
-                   radius_, CubicSpline, values, warped_dx_.data(),
-                   warped_dy_.data());
+  if (options_.interpolation == LsmInterpolation::kCubicSpline) {
+    SampleGridWith(image.spline_coefficients(), image.width(), warp.translation,
+                   warp.linear, radius_, CubicSpline, values);
   } else {
-    SampleGridWith(image.data(), image.width(), center, linear, radius_,
-                   Bilinear, values, warped_dx_.data(), warped_dy_.data());
+    SampleGridWith(image.data(), image.width(), warp.translation, warp.linear,
+                   radius_, Bilinear, values);
   }
   return true;
 }
 
-void LsmMatcher::Linearize(const Vector8d& params, int buffer,
-                           Evaluation* evaluation) {
-  // Columns of the Jacobian in float: the normal matrix is then 36 dot
-  // products over contiguous columns, which vectorize; an 8x8 outer product
-  // per pixel would not fit the registers.
-  const float h0 = static_cast<float>(params[kH0]);
-  const float h1 = static_cast<float>(params[kH1]);
-  const float* values = warped_[buffer].data();
-  float* column[8];
-  for (int c = 0; c < 8; ++c) column[c] = jacobian_.col(c).data();
-  float* residual = residuals_.data();
-  int k = 0;
-  for (int v = -radius_; v <= radius_; ++v) {
-    const float fv = static_cast<float>(v);
-    for (int u = -radius_; u <= radius_; ++u, ++k) {
-      const float fu = static_cast<float>(u);
-      const float gx = h1 * warped_dx_[k];
-      const float gy = h1 * warped_dy_[k];
-      column[kA0][k] = gx;
-      column[kA1][k] = gx * fu;
-      column[kA2][k] = gx * fv;
-      column[kB0][k] = gy;
-      column[kB1][k] = gy * fu;
-      column[kB2][k] = gy * fv;
-      column[kH0][k] = 1.f;
-      column[kH1][k] = values[k];
-      residual[k] = template_[k] - h0 - h1 * values[k];
-    }
-  }
-  for (int c = 0; c < 8; ++c) {
-    for (int r = c; r < 8; ++r) {
-      evaluation->normal(r, c) = evaluation->normal(c, r) =
-          jacobian_.col(r).dot(jacobian_.col(c));
-    }
-    evaluation->gradient[c] = jacobian_.col(c).dot(residuals_);
-  }
-  evaluation->cost = residuals_.squaredNorm();
-  evaluation->buffer = buffer;
+double LsmMatcher::Evaluate(const Warp& warp, int buffer,
+                            Eigen::Matrix<double, 8, 1>* gradient) {
+  residuals_ = (warped_[buffer].array() - static_cast<float>(warp.offset)) -
+               static_cast<float>(warp.gain) * template_.array();
+  *gradient = (jacobian_.transpose() * residuals_).cast<double>();
+  // In template grey levels: template - h0 - h1 image2 = -residual / gain.
+  return static_cast<double>(residuals_.squaredNorm()) /
+         (warp.gain * warp.gain);
 }
 
 LsmResult LsmMatcher::Match(const LsmImage& image1,
                             const Eigen::Vector2d& point1,
                             const LsmImage& image2,
                             const Eigen::Vector2d& point2,
-                            const Eigen::Matrix2d& affine) {
+                            const Eigen::Matrix2d& affine,
+                            const Eigen::Vector2d& window_offset) {
   LsmResult result;
   result.point2 = point2;
   result.affine = affine;
   if (!point1.allFinite() || !point2.allFinite() || !affine.allFinite() ||
-      !(affine.determinant() > 0.0)) {
+      !window_offset.allFinite() || !(affine.determinant() > 0.0)) {
     result.status = LsmStatus::kInvalidInput;
     return result;
   }
@@ -383,14 +326,15 @@ LsmResult LsmMatcher::Match(const LsmImage& image1,
   // not smoothed by interpolation; the affine map carries point1's offset
   // from the anchor into image 2.
   const int reach = radius_ + 1;
-  if (!(point1.x() >= reach - 0.5 && point1.y() >= reach - 0.5 &&
-        point1.x() < image1.width() - reach - 0.5 &&
-        point1.y() < image1.height() - reach - 0.5)) {
+  const Eigen::Vector2d center1 = point1 + window_offset;
+  if (!(center1.x() >= reach - 0.5 && center1.y() >= reach - 0.5 &&
+        center1.x() < image1.width() - reach - 0.5 &&
+        center1.y() < image1.height() - reach - 0.5)) {
     result.status = LsmStatus::kOutsideImage;
     return result;
   }
-  const int anchor_x = static_cast<int>(std::lround(point1.x()));
-  const int anchor_y = static_cast<int>(std::lround(point1.y()));
+  const int anchor_x = static_cast<int>(std::lround(center1.x()));
+  const int anchor_y = static_cast<int>(std::lround(center1.y()));
   const Eigen::Vector2d offset1 = point1 - Eigen::Vector2d(anchor_x, anchor_y);
 
   const int stride = options_.window_size + 2;
@@ -432,16 +376,57 @@ LsmResult LsmMatcher::Match(const LsmImage& image1,
     return result;
   }
 
-  // point2 = (a0, b0) + A offset1; its derivative by the parameters.
-  Eigen::Matrix<double, 2, 8> point_jacobian =
-      Eigen::Matrix<double, 2, 8>::Zero();
-  point_jacobian.row(0).segment<3>(kA0) << 1.0, offset1.x(), offset1.y();
-  point_jacobian.row(1).segment<3>(kB0) << 1.0, offset1.x(), offset1.y();
-  const Eigen::Vector2d anchor2 = point2 - affine * offset1;
-  Vector8d params;
-  params << anchor2.x(), affine(0, 0), affine(0, 1), anchor2.y(), affine(1, 0),
-      affine(1, 1), 0.0, 1.0;
-  if (!Sample(image2, params, 0, options_.interpolation)) {
+  // Inverse compositional Gauss-Newton (Baker & Matthews 2004, "Lucas-Kanade
+  // 20 years on"): each step is an affine increment of the template's
+  // window, inverted and composed with the warp. The Jacobian is then the
+  // template's and the normal matrix is built and factorised once per
+  // point; an iteration only samples image 2's values. The radiometric
+  // model is written image 2 = g0 + g1 * template so that its columns are
+  // template ones too. The template gradient is the exact derivative of
+  // image 1's cubic spline at whole pixels (B-spline derivative weights
+  // -1/2, 0, 1/2 across, 1/6, 2/3, 1/6 along).
+  const float* coefficients = image1.spline_coefficients();
+  const int width1 = image1.width();
+  float* column[8];
+  for (int c = 0; c < 8; ++c) column[c] = jacobian_.col(c).data();
+  k = 0;
+  for (int v = -radius_; v <= radius_; ++v) {
+    const float fv = static_cast<float>(v);
+    const float* row = coefficients +
+                       static_cast<std::ptrdiff_t>(anchor_y + v) * width1 +
+                       anchor_x;
+    const float* above = row - width1;
+    const float* below = row + width1;
+    for (int u = -radius_; u <= radius_; ++u, ++k) {
+      const float fu = static_cast<float>(u);
+      const float gx = (1.f / 12.f) * ((above[u + 1] - above[u - 1]) +
+                                       4.f * (row[u + 1] - row[u - 1]) +
+                                       (below[u + 1] - below[u - 1]));
+      const float gy = (1.f / 12.f) * ((below[u - 1] - above[u - 1]) +
+                                       4.f * (below[u] - above[u]) +
+                                       (below[u + 1] - above[u + 1]));
+      column[kA0][k] = gx;
+      column[kA1][k] = gx * fu;
+      column[kA2][k] = gx * fv;
+      column[kB0][k] = gy;
+      column[kB1][k] = gy * fu;
+      column[kB2][k] = gy * fv;
+      column[kG0][k] = 1.f;
+      column[kG1][k] = template_[k];
+    }
+  }
+  const Matrix8d normal = (jacobian_.transpose() * jacobian_).cast<double>();
+  const Eigen::LDLT<Matrix8d> normal_solver(normal);
+  if (normal_solver.info() != Eigen::Success || !normal_solver.isPositive()) {
+    result.status = LsmStatus::kIllConditioned;
+    return result;
+  }
+
+  Warp warp;
+  warp.linear = affine;
+  warp.translation = point2 - affine * offset1;
+  int buffer = 0;
+  if (!Sample(image2, warp, buffer)) {
     result.status = LsmStatus::kOutsideImage;
     return result;
   }
@@ -449,90 +434,108 @@ LsmResult LsmMatcher::Match(const LsmImage& image1,
   // first steps are spent on geometry.
   double warped_mean = 0.0;
   double warped_stddev = 0.0;
-  MeanAndStddev(warped_[0], &warped_mean, &warped_stddev);
+  MeanAndStddev(warped_[buffer], &warped_mean, &warped_stddev);
   if (!(warped_stddev >= options_.min_stddev)) {
     result.status = LsmStatus::kLowTexture;
     return result;
   }
-  params[kH1] = template_stddev / warped_stddev;
-  params[kH0] = template_mean - params[kH1] * warped_mean;
-  Evaluation current;
-  Linearize(params, 0, &current);
+  warp.gain = warped_stddev / template_stddev;
+  warp.offset = warped_mean - warp.gain * template_mean;
+  Vector8d gradient;
+  double cost = Evaluate(warp, buffer, &gradient);
 
   const bool damped = options_.solver == LsmSolver::kLevenbergMarquardt;
   double lambda = 1e-3;
   bool converged = false;
-  Evaluation candidate;
+  Vector8d next_gradient;
   for (int iteration = 1; iteration <= options_.max_iterations; ++iteration) {
     result.num_iterations = iteration;
-    Matrix8d system = current.normal;
-    if (damped) system.diagonal() *= 1.0 + lambda;
-    const Eigen::LDLT<Matrix8d> solver(system);
-    if (solver.info() != Eigen::Success || !solver.isPositive()) {
-      result.status = LsmStatus::kIllConditioned;
+    // The gain scales the geometric columns: with D = diag(g1 x 6, 1, 1)
+    // the system is (D N D) step = D J' e, i.e. N (D step) = J' e; damping
+    // the diagonal commutes with D.
+    Vector8d scaled_step;
+    if (damped) {
+      Matrix8d system = normal;
+      system.diagonal() *= 1.0 + lambda;
+      scaled_step = system.ldlt().solve(gradient);
+    } else {
+      scaled_step = normal_solver.solve(gradient);
+    }
+    const double to_geometric = 1.0 / warp.gain;
+    Eigen::Matrix2d increment;
+    increment << 1.0 + to_geometric * scaled_step[kA1],
+        to_geometric * scaled_step[kA2], to_geometric * scaled_step[kB1],
+        1.0 + to_geometric * scaled_step[kB2];
+    const Eigen::Vector2d increment_shift(to_geometric * scaled_step[kA0],
+                                          to_geometric * scaled_step[kB0]);
+    if (!scaled_step.allFinite() || !(increment.determinant() > 0.0)) {
+      result.status = LsmStatus::kDiverged;
       return result;
     }
-    const Vector8d step = solver.solve(current.gradient);
-    const Vector8d next = params + step;
-    const Eigen::Matrix2d next_linear = LinearPart(next);
-    if (!next.allFinite() || !(next[kH1] > 0.0) ||
-        !(next_linear.determinant() > 0.0)) {
+    // W(x) <- W(increment^-1(x)).
+    Warp next;
+    next.linear = warp.linear * increment.inverse();
+    next.translation = warp.translation - next.linear * increment_shift;
+    next.offset = warp.offset + scaled_step[kG0];
+    next.gain = warp.gain + scaled_step[kG1];
+    if (!next.linear.allFinite() || !next.translation.allFinite() ||
+        !std::isfinite(next.offset) || !(next.gain > 0.0) ||
+        !(next.linear.determinant() > 0.0)) {
       result.status = LsmStatus::kDiverged;
       return result;
     }
     const Eigen::Vector2d singular_values =
-        Eigen::JacobiSVD<Eigen::Matrix2d>(next_linear).singularValues();
+        Eigen::JacobiSVD<Eigen::Matrix2d>(next.linear).singularValues();
     if (singular_values[0] > options_.max_affine_scale ||
         singular_values[1] < 1.0 / options_.max_affine_scale) {
       result.status = LsmStatus::kDiverged;
       return result;
     }
-    const int spare = 1 - current.buffer;
-    if (!Sample(image2, next, spare, options_.interpolation)) {
-      result.status = LsmStatus::kOutsideImage;
-      return result;
-    }
-    Linearize(next, spare, &candidate);
-    const double point_shift = (point_jacobian * step).norm();
+    const double point_shift = (next.Map(offset1) - warp.Map(offset1)).norm();
     double corner_shift = 0.0;
     for (const double su : {-radius_, radius_}) {
       for (const double sv : {-radius_, radius_}) {
-        corner_shift =
-            std::max(corner_shift,
-                     std::hypot(step[kA0] + su * step[kA1] + sv * step[kA2],
-                                step[kB0] + su * step[kB1] + sv * step[kB2]));
+        const Eigen::Vector2d corner(su, sv);
+        corner_shift = std::max(corner_shift,
+                                (next.Map(corner) - warp.Map(corner)).norm());
       }
     }
     // Converged when the point has settled and the window's shape has too:
     // the point's shift alone can stall while the affine part is far off.
+    // The last step is applied without sampling its window again: it moves
+    // the window by less than the threshold, which changes neither the
+    // NCC nor sigma0 measurably, and saves a fifth of the sampling.
     const double shift =
         std::max(point_shift, corner_shift * options_.convergence_shift_px /
                                   options_.convergence_corner_px);
-    if (damped && !(candidate.cost < current.cost)) {
-      lambda *= 10.0;
-      // A rejected step this small means no descent is left.
-      if (shift < options_.convergence_shift_px) {
-        converged = true;
-        break;
-      }
-      continue;
-    }
-    if (damped) lambda = std::max(lambda / 10.0, 1e-9);
-    params = next;
-    std::swap(current, candidate);
     if (shift < options_.convergence_shift_px) {
+      warp = next;
       converged = true;
       break;
     }
+    const int spare = 1 - buffer;
+    if (!Sample(image2, next, spare)) {
+      result.status = LsmStatus::kOutsideImage;
+      return result;
+    }
+    const double next_cost = Evaluate(next, spare, &next_gradient);
+    if (damped && !(next_cost < cost)) {
+      lambda *= 10.0;
+      continue;
+    }
+    if (damped) lambda = std::max(lambda / 10.0, 1e-9);
+    warp = next;
+    buffer = spare;
+    cost = next_cost;
+    std::swap(gradient, next_gradient);
   }
 
-  result.affine = LinearPart(params);
-  result.point2 =
-      Eigen::Vector2d(params[kA0], params[kB0]) + result.affine * offset1;
-  result.h0 = params[kH0];
-  result.h1 = params[kH1];
-  result.ncc = NormalizedCrossCorrelation(template_, warped_[current.buffer]);
-  result.sigma0 = std::sqrt(current.cost / (num_pixels_ - 8));
+  result.affine = warp.linear;
+  result.point2 = warp.Map(offset1);
+  result.h0 = -warp.offset / warp.gain;
+  result.h1 = 1.0 / warp.gain;
+  result.ncc = NormalizedCrossCorrelation(template_, warped_[buffer]);
+  result.sigma0 = std::sqrt(cost / (num_pixels_ - 8));
   if (!converged) {
     result.status = LsmStatus::kNoConvergence;
     return result;
@@ -541,31 +544,46 @@ LsmResult LsmMatcher::Match(const LsmImage& image1,
     result.status = LsmStatus::kShiftTooLarge;
     return result;
   }
-  // Condition of the normal matrix with unit diagonal: the parameters'
-  // units (pixels, grey levels, ratios) then no longer matter.
-  const Vector8d scale = current.normal.diagonal().cwiseSqrt().cwiseInverse();
-  if (!scale.allFinite()) {
+  // Condition of the normal matrix with unit diagonal, S = D N D: the
+  // parameters' units (pixels, grey levels, ratios) then no longer matter.
+  // trace(S) trace(S^-1) = 8 sum_i N_ii (N^-1)_ii bounds it from above and
+  // costs only the inverse, which the covariance needs anyway; the
+  // eigenvalues are computed only when the bound exceeds the limit.
+  const Vector8d diagonal = normal.diagonal();
+  const Matrix8d inverse = normal_solver.solve(Matrix8d::Identity());
+  if (!(diagonal.minCoeff() > 0.0) || !inverse.allFinite()) {
     result.status = LsmStatus::kIllConditioned;
     return result;
   }
-  const Matrix8d scaled =
-      scale.asDiagonal() * current.normal * scale.asDiagonal();
-  const Eigen::SelfAdjointEigenSolver<Matrix8d> eigen(scaled,
-                                                      Eigen::EigenvaluesOnly);
-  const double smallest = eigen.eigenvalues()[0];
-  if (!(smallest > 0.0) ||
-      eigen.eigenvalues()[7] / smallest > options_.max_condition_number) {
-    result.status = LsmStatus::kIllConditioned;
-    return result;
+  if (!(8.0 * diagonal.dot(inverse.diagonal()) <=
+        options_.max_condition_number)) {
+    const Vector8d scale = diagonal.cwiseSqrt().cwiseInverse();
+    const Matrix8d scaled = scale.asDiagonal() * normal * scale.asDiagonal();
+    const Eigen::SelfAdjointEigenSolver<Matrix8d> eigen(scaled,
+                                                        Eigen::EigenvaluesOnly);
+    const double smallest = eigen.eigenvalues()[0];
+    if (!(smallest > 0.0) ||
+        eigen.eigenvalues()[7] / smallest > options_.max_condition_number) {
+      result.status = LsmStatus::kIllConditioned;
+      return result;
+    }
   }
   if (!(result.ncc >= options_.min_ncc)) {
     result.status = LsmStatus::kLowCorrelation;
     return result;
   }
-  const Eigen::Matrix<double, 8, 2> solved =
-      current.normal.ldlt().solve(point_jacobian.transpose());
+  // The template-side shift of point1, dt + dA offset1, has covariance
+  // sigma0^2 P N^-1 P' in template units (the gain scaling of the columns
+  // and of the residual cancel); the composition carries it into image 2
+  // as -A (dt + dA offset1).
+  Eigen::Matrix<double, 2, 8> point_jacobian =
+      Eigen::Matrix<double, 2, 8>::Zero();
+  point_jacobian.row(0).segment<3>(kA0) << 1.0, offset1.x(), offset1.y();
+  point_jacobian.row(1).segment<3>(kB0) << 1.0, offset1.x(), offset1.y();
   result.point2_covariance =
-      result.sigma0 * result.sigma0 * (point_jacobian * solved);
+      result.sigma0 * result.sigma0 * warp.linear *
+      (point_jacobian * inverse * point_jacobian.transpose()) *
+      warp.linear.transpose();
   result.status = LsmStatus::kConverged;
   return result;
 }

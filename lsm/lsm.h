@@ -6,9 +6,16 @@
 //
 //   I1(x1 + u, y1 + v) = h0 + h1 I2(a0 + a1 u + a2 v, b0 + b1 u + b2 v)
 //
-// with (u, v) the window offsets; (a0, b0) is the refined position of point1
-// in image 2. Positions follow OpenCV's convention: the centre of the top-left
+// with (u, v) the window offsets from the window's centre pixel; point1's
+// match is (a0, b0) plus the affine part applied to point1's offset from that
+// pixel. Positions follow OpenCV's convention: the centre of the top-left
 // pixel is (0, 0), as for cv::KeyPoint.
+//
+// The solver is inverse compositional (Baker & Matthews 2004): each step is
+// an affine increment of the template window, inverted and composed with the
+// current warp, so that the Jacobian comes from the template alone and the
+// normal matrix is built and factorised once per point; an iteration only
+// samples image 2's values in the window.
 
 #include <array>
 #include <vector>
@@ -34,6 +41,10 @@ class LsmImage {
   const cv::Mat& pixels() const { return pixels_; }
   // Cubic B-spline coefficients of the pixels, same layout.
   const float* spline_coefficients() const { return spline_.ptr<float>(); }
+  // Memory held (pixels and coefficients), for caches.
+  std::size_t ByteSize() const {
+    return pixels_.total() * pixels_.elemSize() + spline_.total() * spline_.elemSize();
+  }
 
   // The image at half resolution (Gaussian 5x5, cv::pyrDown): a point (x, y)
   // here lies at (x / 2, y / 2) there.
@@ -50,6 +61,7 @@ class LsmImage {
 std::vector<LsmImage> BuildLsmPyramid(const cv::Mat& grey, int num_levels);
 
 enum class LsmSolver {
+  // Undamped inverse compositional steps.
   kGaussNewton,
   // Damped steps, accepted only when they lower the residual: slower but
   // more tolerant of a poor start.
@@ -146,7 +158,8 @@ struct LsmResult {
   // with the redundancy n - 8.
   double sigma0 = 0.0;
   // Covariance of point2 (pixels^2): sigma0^2 times the inverse normal
-  // matrix; set when converged.
+  // matrix, carried from the template window into image 2 by the affine
+  // part; set when converged.
   Eigen::Matrix2d point2_covariance = Eigen::Matrix2d::Zero();
   int num_iterations = 0;
 
@@ -163,33 +176,37 @@ class LsmMatcher {
   const LsmOptions& options() const { return options_; }
 
   // Refines point2, the start in image 2, with `affine` the start of the
-  // linear part (identity when the views are alike).
-  LsmResult Match(const LsmImage& image1, const Eigen::Vector2d& point1,
-                  const LsmImage& image2, const Eigen::Vector2d& point2,
-                  const Eigen::Matrix2d& affine = Eigen::Matrix2d::Identity());
+  // linear part (identity when the views are alike). The window is centred
+  // on the whole pixel nearest to point1 + window_offset: an offset window
+  // still containing point1 can avoid a depth edge or a flat patch beside
+  // it, point1's match then following from the window's affine map.
+  LsmResult Match(
+      const LsmImage& image1, const Eigen::Vector2d& point1,
+      const LsmImage& image2, const Eigen::Vector2d& point2,
+      const Eigen::Matrix2d& affine = Eigen::Matrix2d::Identity(),
+      const Eigen::Vector2d& window_offset = Eigen::Vector2d::Zero());
 
  private:
-  struct Evaluation;
-  // Samples the warped window and its image gradient at `params` into
-  // warped_[buffer], warped_dx_, warped_dy_; false when it leaves the image.
-  bool Sample(const LsmImage& image, const Eigen::Matrix<double, 8, 1>& params,
-              int buffer, LsmInterpolation interpolation);
-  // The normal equations at `params` from the last samples.
-  void Linearize(const Eigen::Matrix<double, 8, 1>& params, int buffer,
-                 Evaluation* evaluation);
+  struct Warp;
+  // Samples the window under `warp` into warped_[buffer]; false when it
+  // leaves the image.
+  bool Sample(const LsmImage& image, const Warp& warp, int buffer);
+  // Residuals of warped_[buffer] under `warp`, their product with the
+  // Jacobian into `gradient`; returns their sum of squares in template grey
+  // levels.
+  double Evaluate(const Warp& warp, int buffer,
+                  Eigen::Matrix<double, 8, 1>* gradient);
 
   LsmOptions options_;
   int radius_ = 0;
   int num_pixels_ = 0;
   // Window pixels in row order: the template, the template with a one-pixel
   // border (for its texture measure, row stride window_size + 2), the warped
-  // window twice (a rejected damped step keeps the last accepted one) and
-  // the image gradient at its samples.
+  // window twice (a rejected damped step keeps the last accepted one), the
+  // template-side Jacobian and the residuals.
   Eigen::VectorXf template_;
   std::vector<float> template_border_;
   Eigen::VectorXf warped_[2];
-  Eigen::VectorXf warped_dx_;
-  Eigen::VectorXf warped_dy_;
   Eigen::Matrix<float, Eigen::Dynamic, 8> jacobian_;
   Eigen::VectorXf residuals_;
 };

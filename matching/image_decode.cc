@@ -8,34 +8,65 @@
 #include <iterator>
 #include <stdexcept>
 
+#include <libexif/exif-data.h>
 #include <opencv2/imgcodecs.hpp>
 
 namespace flysfm {
 namespace {
+
+const std::uint8_t kPngSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
 
 bool IsJpeg(const std::uint8_t* data, std::size_t size) {
   return size >= 3 && data[0] == 0xFF && data[1] == 0xD8 && data[2] == 0xFF;
 }
 
 bool IsPng(const std::uint8_t* data, std::size_t size) {
-  static const std::uint8_t kSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
-  return size >= 8 && std::memcmp(data, kSignature, 8) == 0;
+  return size >= 8 && std::memcmp(data, kPngSignature, 8) == 0;
 }
 
-// Some writers pad after the EOI marker, so it is looked for near the end
-// rather than exactly at it.
-bool JpegHasEoi(const std::uint8_t* data, std::size_t size) {
-  constexpr std::size_t kMaxTrailing = 4096;
-  const std::size_t stop = size > kMaxTrailing ? size - kMaxTrailing : 1;
-  for (std::size_t i = size - 1; i >= stop; --i) {
-    if (data[i - 1] == 0xFF && data[i] == 0xD9) return true;
+// EXIF rational and short values as double; nullopt when the tag is absent.
+std::optional<double> ExifNumber(ExifData* exif, ExifTag tag) {
+  ExifEntry* entry = exif_data_get_entry(exif, tag);
+  if (entry == nullptr || entry->components < 1 || entry->data == nullptr) return std::nullopt;
+  const ExifByteOrder order = exif_data_get_byte_order(exif);
+  switch (entry->format) {
+    case EXIF_FORMAT_SHORT: return double(exif_get_short(entry->data, order));
+    case EXIF_FORMAT_LONG: return double(exif_get_long(entry->data, order));
+    case EXIF_FORMAT_RATIONAL: {
+      const ExifRational value = exif_get_rational(entry->data, order);
+      if (value.denominator == 0) return std::nullopt;
+      return double(value.numerator) / value.denominator;
+    }
+    default: return std::nullopt;
   }
-  return false;
 }
 
-bool PngHasIend(const std::uint8_t* data, std::size_t size) {
-  // The IEND chunk: length 0, type "IEND", CRC; always the last 12 bytes.
-  return size >= 8 + 12 && std::memcmp(data + size - 8, "IEND", 4) == 0;
+std::optional<double> ExifFocalLengthPx(const std::uint8_t* data, std::size_t size,
+                                        int width, int height) {
+  ExifData* exif = exif_data_new_from_data(data, static_cast<unsigned int>(size));
+  if (exif == nullptr) return std::nullopt;
+  std::optional<double> focal_px;
+  const auto positive = [](std::optional<double> v) { return v && *v > 0; };
+  const std::optional<double> focal_35mm =
+      ExifNumber(exif, EXIF_TAG_FOCAL_LENGTH_IN_35MM_FILM);
+  const std::optional<double> focal_mm = ExifNumber(exif, EXIF_TAG_FOCAL_LENGTH);
+  const std::optional<double> plane_resolution =
+      ExifNumber(exif, EXIF_TAG_FOCAL_PLANE_X_RESOLUTION);
+  if (positive(focal_35mm)) {
+    focal_px = *focal_35mm / 36.0 * std::max(width, height);
+  } else if (positive(focal_mm) && positive(plane_resolution)) {
+    // Resolution unit: 2 inch (the default), 3 cm, 4 mm, 5 um.
+    const std::optional<double> unit = ExifNumber(exif, EXIF_TAG_FOCAL_PLANE_RESOLUTION_UNIT);
+    const int code = unit ? int(*unit) : 2;
+    const double unit_mm = code == 3 ? 10.0 : code == 4 ? 1.0 : code == 5 ? 1e-3 : 25.4;
+    // The resolution refers to the sensor's full pixel width, which the
+    // stored image may be scaled from.
+    const std::optional<double> sensor_width_px = ExifNumber(exif, EXIF_TAG_PIXEL_X_DIMENSION);
+    const double scale = positive(sensor_width_px) ? width / *sensor_width_px : 1.0;
+    focal_px = *focal_mm * (*plane_resolution / unit_mm) * scale;
+  }
+  exif_data_unref(exif);
+  return focal_px;
 }
 
 DecodedImage Failure(std::string message) {
@@ -46,12 +77,26 @@ DecodedImage Failure(std::string message) {
 
 }  // namespace
 
+bool HasJpegMarkers(const std::uint8_t* data, std::size_t size) {
+  if (size < 4 || data[0] != 0xFF || data[1] != 0xD8) return false;
+  std::size_t end = size;
+  while (end > 2 && data[end - 1] == 0x00) --end;
+  return end >= 4 && data[end - 2] == 0xFF && data[end - 1] == 0xD9;
+}
+
+bool HasPngMarkers(const std::uint8_t* data, std::size_t size) {
+  // The last chunk: length 0, "IEND", 4 bytes of CRC.
+  static const std::uint8_t kIend[8] = {0, 0, 0, 0, 'I', 'E', 'N', 'D'};
+  return size >= 8 + 12 && std::memcmp(data, kPngSignature, 8) == 0 &&
+         std::memcmp(data + size - 12, kIend, 8) == 0;
+}
+
 DecodedImage DecodeImageBytes(const std::uint8_t* data, std::size_t size) {
   if (data == nullptr || size == 0) return Failure("empty image data (0 bytes)");
-  if (IsJpeg(data, size) && !JpegHasEoi(data, size)) {
+  if (IsJpeg(data, size) && !HasJpegMarkers(data, size)) {
     return Failure("truncated JPEG: no end-of-image marker");
   }
-  if (IsPng(data, size) && !PngHasIend(data, size)) {
+  if (IsPng(data, size) && !HasPngMarkers(data, size)) {
     return Failure("truncated PNG: no IEND chunk");
   }
   cv::Mat decoded;
@@ -68,6 +113,9 @@ DecodedImage DecodeImageBytes(const std::uint8_t* data, std::size_t size) {
   }
   DecodedImage result;
   result.image = decoded;
+  if (IsJpeg(data, size)) {
+    result.exif_focal_length_px = ExifFocalLengthPx(data, size, decoded.cols, decoded.rows);
+  }
   return result;
 }
 

@@ -6,6 +6,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -20,9 +21,20 @@ struct DecodedImage {
   cv::Mat image;
   // Why decoding failed; empty on success.
   std::string error;
+  // The focal length in pixels from a JPEG's EXIF, when it says enough:
+  // FocalLengthIn35mmFilm (scaled from the 36 mm film width to the image's
+  // longer side), else FocalLength with FocalPlaneXResolution.
+  std::optional<double> exif_focal_length_px;
 
   bool ok() const { return error.empty(); }
 };
+
+// Completeness of encoded bytes, checked before anything is decoded: a file
+// still being written or a download cut short lacks its closing marker.
+// JPEG: start (FF D8) and end (FF D9) markers, zero padding after the end
+// allowed (some cameras write it). PNG: signature and a final IEND chunk.
+bool HasJpegMarkers(const std::uint8_t* data, std::size_t size);
+bool HasPngMarkers(const std::uint8_t* data, std::size_t size);
 
 // Decodes JPEG, PNG and the other formats OpenCV reads. A JPEG must end with
 // its EOI marker and a PNG with its IEND chunk: a truncated file is a failure

@@ -12,6 +12,9 @@ packages=(
   nlohmann-json3-dev libspdlog-dev
   catch2 libcli11-dev libcpp-httplib-dev libcurl4-openssl-dev
   libbenchmark-dev
+  libopenblas-serial-dev libexif-dev
+  libwebsocketpp-dev libasio-dev
+  colmap
 )
 
 missing=()

@@ -10,10 +10,14 @@ namespace flysfm {
 
 // flysfm batch DIR --out OUT [--camera ...] [--shuffle SEED] [--interval S]
 void AddBatchCommand(CLI::App& app);
+// flysfm camfi-emulator --images DIR [--port-http P] [--port-events Q] ...
+void AddCamfiEmulatorCommand(CLI::App& app);
 // flysfm demo [--out DIR] [--views N]
 void AddDemoCommand(CLI::App& app);
 // flysfm eval --groundtruth GT --trajectory TRAJ
 void AddEvalCommand(CLI::App& app);
+// flysfm live (--camfi HOST[:PORT] | --watch DIR) --out DIR
+void AddLiveCommand(CLI::App& app);
 // flysfm train-retrieval --images DIR [DIR ...] --out FILE
 void AddTrainRetrievalCommand(CLI::App& app);
 

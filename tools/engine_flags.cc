@@ -1,9 +1,13 @@
 #include "tools/engine_flags.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <iostream>
+#include <map>
+#include <optional>
 
+#include "io/prepared_source.h"
 #include "retrieval/retrieval_model.h"
 
 namespace flysfm {
@@ -59,18 +63,20 @@ Engine EngineFlags::MakeEngine() const {
 
 namespace {
 
-void PrintLine(int index, const ImageResult& result) {
-  std::printf("[%4d] %-32s %-10s %6d pts %+5d new %7.0f ms  model %d img / %d pts%s%s\n",
+void PrintLine(int index, const ImageResult& result, std::optional<double> delay_ms) {
+  char delay[48] = "";
+  if (delay_ms) std::snprintf(delay, sizeof(delay), "  delay %6.0f ms", *delay_ms);
+  std::printf("[%4d] %-32s %-10s %6d pts %+5d new %7.0f ms  model %d img / %d pts%s%s%s\n",
               index, result.name.c_str(), ImageStatusName(result.status),
               result.num_observations, result.num_new_points, result.times.total,
-              result.model_images, result.model_points,
+              result.model_images, result.model_points, delay,
               result.reason.empty() ? "" : "  ", result.reason.c_str());
   std::fflush(stdout);
 }
 
 }  // namespace
 
-int RunEngine(ImageSource* source, Engine* engine, const EngineFlags& flags) {
+int RunEngine(ImageSource* source, Engine* engine, const EngineFlags& flags, bool live) {
   RunWriter writer(flags.out);
   const auto start = std::chrono::steady_clock::now();
   auto last_refresh = start;
@@ -79,16 +85,29 @@ int RunEngine(ImageSource* source, Engine* engine, const EngineFlags& flags) {
   };
   std::vector<ImageResult> all;
   int num_input = 0;
+  // A pending image's later result is timed from its own arrival.
+  std::map<std::string, std::chrono::steady_clock::time_point> arrivals;
+  std::vector<double> delays_ms;
   const auto report = [&](const std::vector<ImageResult>& results) {
     for (const ImageResult& result : results) {
-      PrintLine(num_input, result);
+      std::optional<double> delay_ms;
+      const auto arrival = arrivals.find(result.name);
+      if (live && arrival != arrivals.end()) {
+        delay_ms = 1000 * seconds_since(arrival->second);
+        if (result.status == ImageStatus::kRegistered) delays_ms.push_back(*delay_ms);
+      }
+      PrintLine(num_input, result, delay_ms);
       writer.Log(result);
       all.push_back(result);
     }
   };
-  while (std::optional<Frame> frame = source->Next()) {
+  // The next image is decoded and its features extracted on the second core
+  // while the engine works on this one.
+  PreparedFrameSource prepared(source, engine->options());
+  while (std::optional<PreparedFrame> frame = prepared.Next()) {
     ++num_input;
-    report(engine->AddImage(*frame));
+    arrivals[frame->frame.name] = frame->frame.arrival;
+    report(engine->AddImage(std::move(*frame)));
     if (seconds_since(last_refresh) >= flags.refresh_seconds) {
       writer.WriteModel(engine->reconstruction());
       writer.WriteSummary(engine->reconstruction(), all, num_input,
@@ -106,6 +125,12 @@ int RunEngine(ImageSource* source, Engine* engine, const EngineFlags& flags) {
               num_input, model.NumRegisteredImages(), engine->num_rejected(),
               engine->PendingImageNames().size(), model.NumPoints3D(),
               model.MeanReprojectionError(), seconds_since(start), flags.out.c_str());
+  if (live && !delays_ms.empty()) {
+    std::nth_element(delays_ms.begin(), delays_ms.begin() + delays_ms.size() / 2,
+                     delays_ms.end());
+    std::printf("median delay from arrival to registration: %.0f ms over %zu images\n",
+                delays_ms[delays_ms.size() / 2], delays_ms.size());
+  }
   return 0;
 }
 

@@ -34,7 +34,10 @@ void AddEngineFlags(CLI::App* command, EngineFlags* flags);
 
 // Runs every frame of `source` through the engine, printing one line per
 // image result and keeping `out` current; ends with Finish() and the final
-// model. Returns the process exit code.
-int RunEngine(ImageSource* source, Engine* engine, const EngineFlags& flags);
+// model. With `live`, each line also gives the delay from the image's arrival
+// (Frame::arrival) to its result, and the run ends with the median delay.
+// Returns the process exit code.
+int RunEngine(ImageSource* source, Engine* engine, const EngineFlags& flags,
+              bool live = false);
 
 }  // namespace flysfm

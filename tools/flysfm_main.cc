@@ -15,8 +15,10 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", "flysfm 0.1.0");
   app.require_subcommand(0, 1);
   flysfm::AddBatchCommand(app);
+  flysfm::AddCamfiEmulatorCommand(app);
   flysfm::AddDemoCommand(app);
   flysfm::AddEvalCommand(app);
+  flysfm::AddLiveCommand(app);
   flysfm::AddTrainRetrievalCommand(app);
   CLI11_PARSE(app, argc, argv);
   if (app.get_subcommands().empty()) {

@@ -10,6 +10,7 @@
 
 #include "io/evaluation.h"
 #include "io/image_source.h"
+#include "io/prepared_source.h"
 #include "tests/testing/data.h"
 #include "tests/testing/datasets.h"
 
@@ -21,9 +22,14 @@ struct Run {
   int num_pending = 0;
 };
 
+// As `flysfm batch` runs: the next frame prepared on the second core.
 Run RunEngine(std::vector<Frame> frames, const std::string& camera) {
   Engine engine(Engine::Options(), Camera::FromString(camera, 0, 0));
-  for (const Frame& frame : frames) engine.AddImage(frame);
+  FrameListSource source(std::move(frames));
+  PreparedFrameSource prepared(&source, engine.options());
+  while (std::optional<PreparedFrame> frame = prepared.Next()) {
+    engine.AddImage(std::move(*frame));
+  }
   engine.Finish();
   return {engine.reconstruction(), int(engine.PendingImageNames().size())};
 }
@@ -60,20 +66,35 @@ TEST_CASE("TUM freiburg3, 17 frames at 1 Hz: all registered, ATE <= 1.5 cm") {
   CHECK(run.reconstruction.MeanReprojectionError() <= 0.8);
 }
 
-TEST_CASE("TUM freiburg1_xyz, first 60 frames in order: all registered, ATE <= 1.5 cm") {
+// The 330 frames with the TUM freiburg1 calibration, in order and in a random
+// order (the arbitrary capture the paper claims); floors from the issue.
+void CheckFreiburg1Xyz(int shuffle_seed, double min_registered_share, double max_ate_m,
+                       double max_reprojection_px) {
   const std::string dir = testing::DataPath("tum/rgbd_dataset_freiburg1_xyz");
   std::vector<Frame> frames = ListTumSequence(dir);
-  frames.resize(60);
+  REQUIRE(frames.size() == 330);
+  if (shuffle_seed >= 0) ShuffleFrames(&frames, std::uint32_t(shuffle_seed));
   const Run run = RunEngine(frames,
                             "FULL_OPENCV 517.3,516.5,318.6,255.3,0.2624,-0.9531,"
                             "-0.0054,0.0026,1.1633,0,0,0");
-  CHECK(run.reconstruction.NumRegisteredImages() == frames.size());
   const TrajectoryEvaluation evaluation = EvaluateTrajectory(
       TrajectoryOf(run.reconstruction), ReadTumTrajectory(dir + "/groundtruth.txt"));
   REQUIRE(evaluation.ate);
-  Print("fr1_xyz 60", run, frames.size(), *evaluation.ate, "cm", 100);
-  CHECK(evaluation.ate->rmse <= 0.015);
-  CHECK(run.reconstruction.MeanReprojectionError() <= 0.8);
+  Print(shuffle_seed >= 0 ? "fr1_xyz 330 shuffled" : "fr1_xyz 330 in order", run,
+        frames.size(), *evaluation.ate, "cm", 100);
+  CHECK(double(run.reconstruction.NumRegisteredImages()) >=
+        min_registered_share * double(frames.size()));
+  CHECK(evaluation.ate->rmse <= max_ate_m);
+  CHECK(run.reconstruction.MeanReprojectionError() <= max_reprojection_px);
+}
+
+TEST_CASE("TUM freiburg1_xyz, 330 frames in order: >= 99 % registered, ATE <= 1.5 cm") {
+  CheckFreiburg1Xyz(-1, 0.99, 0.015, 0.8);
+}
+
+TEST_CASE("TUM freiburg1_xyz, 330 frames with --shuffle 1: >= 95 % registered, ATE <= 2.5 cm") {
+  // The issue sets no reprojection floor here; the in-order one still holds.
+  CheckFreiburg1Xyz(1, 0.95, 0.025, 0.8);
 }
 
 TEST_CASE("Strecha fountain-P11 with its K: all registered, centres within 5 mm RMS") {

@@ -31,8 +31,8 @@ LsmView MakeView(const TexturedScene& scene, const Camera& camera,
   LsmView view;
   view.camera = camera;
   view.cam_from_world = cam_from_world;
-  view.pyramid = BuildLsmPyramid(
-      Render(scene, camera, cam_from_world).image, levels);
+  view.pyramid =
+      BuildLsmPyramid(Render(scene, camera, cam_from_world).image, levels);
   return view;
 }
 
@@ -68,8 +68,8 @@ Scenario MakeScenario(int levels) {
     candidate.xyz = point;
     for (int v = 0; v < 3; ++v) {
       const LsmView& reference = scenario.references[v];
-      if (!IsVisible(scenario.scene, scenario.camera,
-                              reference.cam_from_world, point)) {
+      if (!IsVisible(scenario.scene, scenario.camera, reference.cam_from_world,
+                     point)) {
         continue;
       }
       candidate.observations.push_back(
@@ -143,85 +143,113 @@ TEST_CASE(
   const DensifyOptions options;
   const Scenario scenario = MakeScenario(options.num_pyramid_levels);
 
-  // The initial pose: 1 deg and 2 cm off the truth.
-  std::mt19937 rng(5);
   const Rigid3d& truth = scenario.true_pose;
-  const Eigen::Vector3d center =
-      ProjectionCenter(truth) + 0.02 * testing::RandomUnitVector(rng);
-  const Eigen::Matrix3d rotation =
-      (testing::RandomRotationOfAngle(rng, 1.0) * truth.rotation)
-          .toRotationMatrix();
-  const Rigid3d initial(rotation, -rotation * center);
-  REQUIRE(RotationDifferenceDeg(initial, truth) == Approx(1.0).epsilon(1e-6));
+  const RenderedView rendered = Render(scenario.scene, scenario.camera, truth);
+  // Three random perturbations, each of exactly 1 deg and 2 cm.
+  for (const std::uint32_t seed : {5u, 6u, 7u}) {
+    INFO("perturbation seed " << seed);
+    // The initial pose: 1 deg and 2 cm off the truth.
+    std::mt19937 rng(seed);
+    const Eigen::Vector3d center =
+        ProjectionCenter(truth) + 0.02 * testing::RandomUnitVector(rng);
+    const Eigen::Matrix3d rotation =
+        (testing::RandomRotationOfAngle(rng, 1.0) * truth.rotation)
+            .toRotationMatrix();
+    const Rigid3d initial(rotation, -rotation * center);
+    REQUIRE(RotationDifferenceDeg(initial, truth) == Approx(1.0).epsilon(1e-6));
 
-  const RenderedView rendered =
-      Render(scenario.scene, scenario.camera, truth);
-  LsmView image;
-  image.camera = scenario.camera;
-  image.cam_from_world = initial;
-  image.pyramid = BuildLsmPyramid(rendered.image, options.num_pyramid_levels);
-  const DensifyResult result =
-      Densify(image, scenario.references, scenario.candidates, options);
-  CHECK(result.num_candidates == static_cast<int>(scenario.candidates.size()));
+    LsmView image;
+    image.camera = scenario.camera;
+    image.cam_from_world = initial;
+    image.pyramid = BuildLsmPyramid(rendered.image, options.num_pyramid_levels);
+    const DensifyResult result =
+        Densify(image, scenario.references, scenario.candidates, options);
+    CHECK(result.num_candidates ==
+          static_cast<int>(scenario.candidates.size()));
 
-  std::vector<int> added(scenario.candidates.size(), -1);
-  for (size_t m = 0; m < result.matches.size(); ++m) {
-    added[result.matches[m].candidate] = static_cast<int>(m);
-  }
-  constexpr int kNumTruths = 6;
-  int total[kNumTruths] = {};
-  int kept[kNumTruths] = {};
-  std::vector<double> errors;
-  for (size_t c = 0; c < scenario.candidates.size(); ++c) {
-    const Eigen::Vector3d& point = scenario.candidates[c].xyz;
-    const Truth truth_class =
-        Classify(scenario, rendered, point, options.lsm.window_size);
-    ++total[static_cast<int>(truth_class)];
-    if (added[c] < 0) continue;
-    ++kept[static_cast<int>(truth_class)];
-    if (truth_class == Truth::kSingleSurface ||
-        truth_class == Truth::kAtDepthEdge) {
-      errors.push_back((result.matches[added[c]].point2D -
-                        scenario.camera.ImgFromCam(truth * point))
-                           .norm());
+    std::vector<int> added(scenario.candidates.size(), -1);
+    for (size_t m = 0; m < result.matches.size(); ++m) {
+      added[result.matches[m].candidate] = static_cast<int>(m);
     }
+    constexpr int kNumTruths = 6;
+    int total[kNumTruths] = {};
+    int kept[kNumTruths] = {};
+    // Position errors of the added visible points, by class.
+    std::vector<double> errors[kNumTruths];
+    for (size_t c = 0; c < scenario.candidates.size(); ++c) {
+      const Eigen::Vector3d& point = scenario.candidates[c].xyz;
+      const Truth truth_class =
+          Classify(scenario, rendered, point, options.lsm.window_size);
+      ++total[static_cast<int>(truth_class)];
+      if (added[c] < 0) continue;
+      ++kept[static_cast<int>(truth_class)];
+      errors[static_cast<int>(truth_class)].push_back(
+          (result.matches[added[c]].point2D -
+           scenario.camera.ImgFromCam(truth * point))
+              .norm());
+    }
+    const auto figure = [&](Truth t) {
+      return std::to_string(kept[static_cast<int>(t)]) + "/" +
+             std::to_string(total[static_cast<int>(t)]);
+    };
+    const int single = static_cast<int>(Truth::kSingleSurface);
+    const int edge = static_cast<int>(Truth::kAtDepthEdge);
+    const int no_room = static_cast<int>(Truth::kNoRoom);
+    const int visible = total[single] + total[edge] + total[no_room];
+    const int visible_added = kept[single] + kept[edge] + kept[no_room];
+    std::printf(
+        "densify %u: added of visible %d/%d (single surface %s, at depth edges "
+        "%s, "
+        "no room %s); hidden %s deep, %s at edges; outside %s\n",
+        seed, visible_added, visible, figure(Truth::kSingleSurface).c_str(),
+        figure(Truth::kAtDepthEdge).c_str(), figure(Truth::kNoRoom).c_str(),
+        figure(Truth::kDeeplyHidden).c_str(),
+        figure(Truth::kHiddenAtEdge).c_str(), figure(Truth::kOutside).c_str());
+    std::string outcomes;
+    for (int s = 0; s < kNumLsmStatus; ++s) {
+      outcomes += std::string(" ") + LsmStatusName(static_cast<LsmStatus>(s)) +
+                  "=" + std::to_string(result.lsm_counts.counts[s]);
+    }
+    std::printf(
+        "densify %u: LSM outcomes%s; imprecise %d, no reference %d, displaced "
+        "%d\n",
+        seed, outcomes.c_str(), result.num_imprecise, result.num_no_reference,
+        result.num_displaced);
+    std::vector<double> all_errors;
+    for (const int t : {single, edge, no_room}) {
+      std::vector<double>& e = errors[t];
+      all_errors.insert(all_errors.end(), e.begin(), e.end());
+      if (e.empty()) continue;
+      std::sort(e.begin(), e.end());
+      std::printf(
+          "densify %u: position error (%s) median %.4f px, 90th percentile "
+          "%.4f "
+          "px, %d beyond 0.5 px\n",
+          seed,
+          t == single ? "single surface"
+          : t == edge ? "depth edges"
+                      : "no room",
+          e[e.size() / 2], e[e.size() * 9 / 10],
+          static_cast<int>(e.end() -
+                           std::upper_bound(e.begin(), e.end(), 0.5)));
+    }
+    REQUIRE(total[single] >= 300);
+    REQUIRE(total[edge] >= 50);
+    REQUIRE(total[static_cast<int>(Truth::kDeeplyHidden)] >= 50);
+    REQUIRE(total[static_cast<int>(Truth::kOutside)] >= 50);
+    // The criteria: >= 90 % of the visible points added, median
+    // position error below 0.1 px.
+    CHECK(visible_added >= 0.9 * visible);
+    REQUIRE(!all_errors.empty());
+    std::nth_element(all_errors.begin(),
+                     all_errors.begin() + all_errors.size() / 2,
+                     all_errors.end());
+    std::printf("densify %u: median position error %.4f px\n", seed,
+                all_errors[all_errors.size() / 2]);
+    CHECK(all_errors[all_errors.size() / 2] < 0.1);
+    CHECK(kept[static_cast<int>(Truth::kDeeplyHidden)] == 0);
+    CHECK(kept[static_cast<int>(Truth::kOutside)] == 0);
   }
-  const auto figure = [&](Truth t) {
-    return std::to_string(kept[static_cast<int>(t)]) + "/" +
-           std::to_string(total[static_cast<int>(t)]);
-  };
-  const int single = static_cast<int>(Truth::kSingleSurface);
-  const int edge = static_cast<int>(Truth::kAtDepthEdge);
-  std::printf(
-      "densify: added of visible %d/%d (single surface %s, at depth edges %s, "
-      "no room %s); hidden %s deep, %s at edges; outside %s\n",
-      kept[single] + kept[edge], total[single] + total[edge],
-      figure(Truth::kSingleSurface).c_str(),
-      figure(Truth::kAtDepthEdge).c_str(), figure(Truth::kNoRoom).c_str(),
-      figure(Truth::kDeeplyHidden).c_str(),
-      figure(Truth::kHiddenAtEdge).c_str(), figure(Truth::kOutside).c_str());
-  std::string outcomes;
-  for (int s = 0; s < kNumLsmStatus; ++s) {
-    outcomes += std::string(" ") + LsmStatusName(static_cast<LsmStatus>(s)) +
-                "=" + std::to_string(result.lsm_counts.counts[s]);
-  }
-  std::printf("densify: LSM outcomes%s; no reference %d, displaced %d\n",
-              outcomes.c_str(), result.num_no_reference, result.num_displaced);
-  REQUIRE(total[single] >= 300);
-  REQUIRE(total[static_cast<int>(Truth::kDeeplyHidden)] >= 50);
-  REQUIRE(total[static_cast<int>(Truth::kOutside)] >= 50);
-  // Area-based matching needs the window on the point's surface: there the
-  // issue's 90 % must hold. Windows across a depth edge see two motions and
-  // mostly fail, which is right; the overall figure is printed above.
-  CHECK(kept[single] >= 0.9 * total[single]);
-  REQUIRE(!errors.empty());
-  std::nth_element(errors.begin(), errors.begin() + errors.size() / 2,
-                   errors.end());
-  std::printf("densify: median position error %.4f px\n",
-              errors[errors.size() / 2]);
-  CHECK(errors[errors.size() / 2] < 0.1);
-  CHECK(kept[static_cast<int>(Truth::kDeeplyHidden)] == 0);
-  CHECK(kept[static_cast<int>(Truth::kOutside)] == 0);
 }
 
 TEST_CASE("The predicted affine map matches the rendered geometry") {
@@ -264,6 +292,15 @@ TEST_CASE("The predicted affine map matches the rendered geometry") {
 
 TEST_CASE("Densify rejects bad options, pyramids and observations") {
   DensifyOptions options;
+  CHECK(options.Check());
+  for (const auto& spoil : std::vector<void (*)(DensifyOptions*)>{
+           [](DensifyOptions* o) { o->max_references_per_point = 0; },
+           [](DensifyOptions* o) { o->window_shift_px = -1.0; },
+           [](DensifyOptions* o) { o->max_relative_sigma0 = 0.0; }}) {
+    DensifyOptions spoilt;
+    spoil(&spoilt);
+    CHECK_FALSE(spoilt.Check());
+  }
   options.num_pyramid_levels = 0;
   CHECK_FALSE(options.Check());
   LsmView image;

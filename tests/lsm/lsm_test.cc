@@ -9,8 +9,8 @@
 #include <Eigen/Geometry>
 #include <catch2/catch.hpp>
 
-#include "tests/testing/affine_pair.h"
 #include "io/procedural_texture.h"
+#include "tests/testing/affine_pair.h"
 
 namespace flysfm {
 namespace {
@@ -140,6 +140,43 @@ TEST_CASE("Cubic-spline sampling removes the bilinear phase bias") {
   const double spline_p90 = errors[1][errors[1].size() * 9 / 10];
   CHECK(spline_p90 < 0.01);
   CHECK(spline_p90 < 0.5 * bilinear_p90);
+}
+
+TEST_CASE("A window offset from the point still matches the point") {
+  // The window may sit beside the point (up to its radius, so that the
+  // point stays inside): the point's match follows from the affine map.
+  testing::AffinePairOptions pair_options;
+  pair_options.linear = RotationScale(12.0, 0.9);
+  pair_options.translation = Eigen::Vector2d(1.3, -0.6);
+  pair_options.blur_sigma = 1.25;
+  const testing::AffinePair pair = testing::MakeAffinePair(pair_options);
+  const LsmImage image1(pair.image1);
+  const LsmImage image2(pair.image2);
+  LsmMatcher matcher{LsmOptions()};
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<double> coordinate(120.0, 280.0);
+  int converged = 0;
+  for (int i = 0; i < 20; ++i) {
+    const Eigen::Vector2d point1(coordinate(rng), coordinate(rng));
+    const Eigen::Vector2d truth = pair.Map(point1);
+    for (const Eigen::Vector2d& offset :
+         {Eigen::Vector2d(7.0, 0.0), Eigen::Vector2d(-7.0, 7.0),
+          Eigen::Vector2d(0.0, -4.0)}) {
+      const LsmResult result =
+          matcher.Match(image1, point1, image2, PerturbedStart(truth, 1.0, rng),
+                        Eigen::Matrix2d::Identity(), offset);
+      if (!result.Converged()) continue;
+      ++converged;
+      CHECK((result.point2 - truth).norm() < 0.02);
+    }
+  }
+  CHECK(converged >= 54);  // 90 % of 60
+  // The offset window must fit in image 1 too.
+  CHECK(matcher
+            .Match(image1, Eigen::Vector2d(12.0, 200.0), image2,
+                   pair.Map(Eigen::Vector2d(12.0, 200.0)),
+                   Eigen::Matrix2d::Identity(), Eigen::Vector2d(-7.0, 0.0))
+            .status == LsmStatus::kOutsideImage);
 }
 
 TEST_CASE("LSM estimates the radiometric and affine parameters") {

@@ -1,23 +1,25 @@
 // LSM refinement on real image pairs: the epipolar consistency of verified
-// SIFT matches must improve. Test-only matching: OpenCV SIFT + brute force
-// with Lowe's ratio test; the robust F is OpenCV's USAC (both stand in for
-// matching/ and geometry/ until those modules land).
+// SIFT matches must improve. Matches come from the project's own pipeline
+// (matching/: SIFT, mutual ratio-test matching; geometry/: robust F), as the
+// engine produces them.
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
-#include <fstream>
-#include <sstream>
 #include <string>
 #include <vector>
 
 #include <catch2/catch.hpp>
-#include <opencv2/calib3d.hpp>
-#include <opencv2/features2d.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "geometry/camera.h"
+#include "geometry/fundamental_matrix.h"
+#include "geometry/two_view_geometry.h"
 #include "lsm/refine_matches.h"
+#include "matching/features.h"
+#include "matching/matcher.h"
 #include "tests/testing/data.h"
+#include "tests/testing/datasets.h"
 
 namespace flysfm {
 namespace {
@@ -29,19 +31,17 @@ struct Matches {
 
 Matches SiftMatches(const cv::Mat& image1, const cv::Mat& image2,
                     int max_features) {
-  cv::Ptr<cv::SIFT> sift = cv::SIFT::create(max_features);
-  std::vector<cv::KeyPoint> keypoints1, keypoints2;
-  cv::Mat descriptors1, descriptors2;
-  sift->detectAndCompute(image1, cv::noArray(), keypoints1, descriptors1);
-  sift->detectAndCompute(image2, cv::noArray(), keypoints2, descriptors2);
-  cv::BFMatcher matcher(cv::NORM_L2);
-  std::vector<std::vector<cv::DMatch>> knn;
-  matcher.knnMatch(descriptors1, descriptors2, knn, 2);
+  SiftOptions sift;
+  sift.max_num_features = max_features;
+  // The images are passed at the resolution LSM works on.
+  sift.max_image_size = std::max(image1.cols, image1.rows);
+  const FeatureSet features1 = ExtractFeatures(image1, sift);
+  const FeatureSet features2 = ExtractFeatures(image2, sift);
   Matches matches;
-  for (const auto& pair : knn) {
-    if (pair.size() < 2 || pair[0].distance > 0.8f * pair[1].distance) continue;
-    const cv::Point2f& p1 = keypoints1[pair[0].queryIdx].pt;
-    const cv::Point2f& p2 = keypoints2[pair[0].trainIdx].pt;
+  for (const FeatureMatch& match : MatchDescriptors(
+           features1.descriptors, features2.descriptors, MatchOptions())) {
+    const Keypoint& p1 = features1.keypoints[match.idx1];
+    const Keypoint& p2 = features2.keypoints[match.idx2];
     matches.points1.emplace_back(p1.x, p1.y);
     matches.points2.emplace_back(p2.x, p2.y);
   }
@@ -50,13 +50,13 @@ Matches SiftMatches(const cv::Mat& image1, const cv::Mat& image2,
 
 // Undistorted pixel coordinates: the camera's ray through the pixel, seen
 // by the same camera without distortion. Epipolar geometry holds there.
-std::vector<cv::Point2d> Undistorted(
+std::vector<Eigen::Vector2d> Undistorted(
     const Camera& camera, const std::vector<Eigen::Vector2d>& points) {
   const double fx = camera.params[0];
   const double fy = camera.params[camera.NumFocalParams() - 1];
   const double cx = camera.params[camera.NumFocalParams()];
   const double cy = camera.params[camera.NumFocalParams() + 1];
-  std::vector<cv::Point2d> undistorted;
+  std::vector<Eigen::Vector2d> undistorted;
   for (const Eigen::Vector2d& point : points) {
     const Eigen::Vector2d ray = camera.CamFromImg(point);
     undistorted.emplace_back(fx * ray.x() + cx, fy * ray.y() + cy);
@@ -64,40 +64,32 @@ std::vector<cv::Point2d> Undistorted(
   return undistorted;
 }
 
-// F by USAC with the threshold in pixels; the inlier mask in `mask`.
-cv::Mat RobustFundamental(const std::vector<cv::Point2d>& points1,
-                          const std::vector<cv::Point2d>& points2,
-                          double threshold_px, std::vector<uchar>* mask) {
-  cv::setRNGSeed(1);
-  return cv::findFundamentalMat(points1, points2, cv::USAC_ACCURATE,
-                                threshold_px, 0.9999, 20000, *mask);
-}
-
-double SampsonDistance(const cv::Matx33d& f, const cv::Point2d& p1,
-                       const cv::Point2d& p2) {
-  const cv::Vec3d x1(p1.x, p1.y, 1.0);
-  const cv::Vec3d x2(p2.x, p2.y, 1.0);
-  const cv::Vec3d f_x1 = f * x1;
-  const cv::Vec3d ft_x2 = f.t() * x2;
-  const double numerator = x2.dot(f_x1);
-  const double denominator = f_x1[0] * f_x1[0] + f_x1[1] * f_x1[1] +
-                             ft_x2[0] * ft_x2[0] + ft_x2[1] * ft_x2[1];
-  return std::abs(numerator) / std::sqrt(denominator);
+// F by the project's RANSAC (MSAC, LO, least-squares refinement), the
+// threshold on the Sampson distance in pixels; fixed seed.
+RansacResult<Eigen::Matrix3d> RobustFundamental(
+    const std::vector<Eigen::Vector2d>& points1,
+    const std::vector<Eigen::Vector2d>& points2, double threshold_px) {
+  RansacOptions ransac;
+  ransac.max_error = threshold_px;
+  ransac.confidence = 0.9999;
+  ransac.max_iterations = 20000;
+  ransac.seed = 1;
+  return EstimateFundamentalMatrix(points1, points2, ransac);
 }
 
 // Median Sampson distance (pixels) of a set to the F estimated robustly
-// from that same set: least median of squares, the estimator of this very
-// figure, free of an inlier threshold.
-double MedianSampson(const std::vector<cv::Point2d>& points1,
-                     const std::vector<cv::Point2d>& points2) {
-  cv::setRNGSeed(1);
-  const cv::Mat f = cv::findFundamentalMat(points1, points2, cv::FM_LMEDS, 1.0,
-                                           0.9999, 20000);
-  REQUIRE(f.rows == 3);
-  const cv::Matx33d fundamental(f.ptr<double>());
+// from that same set. The 1 px threshold lies well above the residuals of
+// true SIFT matches (a few tenths of a pixel) and below gross errors, for
+// the raw and the refined set alike.
+double MedianSampson(const std::vector<Eigen::Vector2d>& points1,
+                     const std::vector<Eigen::Vector2d>& points2) {
+  const RansacResult<Eigen::Matrix3d> f =
+      RobustFundamental(points1, points2, 1.0);
+  REQUIRE(f.success);
   std::vector<double> distances;
   for (size_t i = 0; i < points1.size(); ++i) {
-    distances.push_back(SampsonDistance(fundamental, points1[i], points2[i]));
+    distances.push_back(
+        std::sqrt(FundamentalSampsonError(f.model, points1[i], points2[i])));
   }
   std::nth_element(distances.begin(), distances.begin() + distances.size() / 2,
                    distances.end());
@@ -124,12 +116,13 @@ PairFigures EvaluatePair(const cv::Mat& image1, const cv::Mat& image2,
                          const std::string& name) {
   const Matches matches = SiftMatches(image1, image2, max_features);
   // Verified matches: inliers of a robust F on the raw SIFT positions.
-  std::vector<uchar> mask;
-  RobustFundamental(Undistorted(camera, matches.points1),
-                    Undistorted(camera, matches.points2), 1.5, &mask);
+  const RansacResult<Eigen::Matrix3d> verification =
+      RobustFundamental(Undistorted(camera, matches.points1),
+                        Undistorted(camera, matches.points2), 1.5);
+  REQUIRE(verification.success);
   std::vector<int> verified;
-  for (size_t i = 0; i < mask.size(); ++i) {
-    if (mask[i]) verified.push_back(static_cast<int>(i));
+  for (size_t i = 0; i < verification.inlier_mask.size(); ++i) {
+    if (verification.inlier_mask[i]) verified.push_back(static_cast<int>(i));
   }
   const std::vector<Eigen::Vector2d> points1 =
       Select(matches.points1, verified);
@@ -142,7 +135,7 @@ PairFigures EvaluatePair(const cv::Mat& image1, const cv::Mat& image2,
   std::vector<Eigen::Vector2d> refined2;
   for (const int i : refined.inliers)
     refined2.push_back(refined.results[i].point2);
-  const std::vector<cv::Point2d> kept1 =
+  const std::vector<Eigen::Vector2d> kept1 =
       Undistorted(camera, Select(points1, refined.inliers));
   PairFigures figures;
   figures.verified = static_cast<int>(verified.size());
@@ -171,15 +164,10 @@ PairFigures EvaluatePair(const cv::Mat& image1, const cv::Mat& image2,
 std::vector<std::string> TumFrames() {
   const std::string folder =
       testing::DataPath("tum/rgbd_dataset_freiburg1_xyz");
-  std::ifstream list(folder + "/rgb.txt");
   std::vector<std::string> frames;
-  std::string line;
-  while (std::getline(list, line)) {
-    if (line.empty() || line[0] == '#') continue;
-    std::istringstream fields(line);
-    std::string timestamp, file;
-    fields >> timestamp >> file;
-    frames.push_back(folder + "/" + file);
+  for (const testing::TumFrame& frame :
+       testing::ReadTumFrames(folder + "/rgb.txt")) {
+    frames.push_back(folder + "/" + frame.file);
   }
   return frames;
 }

@@ -6,6 +6,7 @@
 #include <random>
 
 #include <catch2/catch.hpp>
+#include <libexif/exif-data.h>
 #include <opencv2/imgcodecs.hpp>
 
 #include "io/procedural_texture.h"
@@ -91,6 +92,68 @@ TEST_CASE("image files are decoded and listed and missing ones give errors") {
   CHECK(fs::path(files[1]).filename() == "b.png");
   CHECK_THROWS_AS(ListImageFiles((dir / "nope").string()), std::invalid_argument);
   fs::remove_all(dir);
+}
+
+// A JPEG with an EXIF APP1 segment holding the given tags (SHORT values for
+// FocalLengthIn35mmFilm and the resolution unit, RATIONAL for the others).
+std::vector<std::uint8_t> JpegWithExif(const cv::Mat& image,
+                                       const std::vector<std::pair<ExifTag, double>>& tags) {
+  ExifData* exif = exif_data_new();
+  exif_data_set_byte_order(exif, EXIF_BYTE_ORDER_INTEL);
+  for (const auto& [tag, value] : tags) {
+    ExifEntry* entry = exif_entry_new();
+    exif_content_add_entry(exif->ifd[EXIF_IFD_EXIF], entry);
+    exif_entry_initialize(entry, tag);
+    if (entry->format == EXIF_FORMAT_SHORT) {
+      exif_set_short(entry->data, EXIF_BYTE_ORDER_INTEL, ExifShort(value));
+    } else if (entry->format == EXIF_FORMAT_LONG) {
+      exif_set_long(entry->data, EXIF_BYTE_ORDER_INTEL, ExifLong(value));
+    } else {
+      exif_set_rational(entry->data, EXIF_BYTE_ORDER_INTEL,
+                        ExifRational{ExifLong(value * 1000), 1000});
+    }
+    exif_entry_unref(entry);
+  }
+  unsigned char* block = nullptr;
+  unsigned int length = 0;
+  exif_data_save_data(exif, &block, &length);
+  exif_data_unref(exif);
+  REQUIRE(block != nullptr);
+  std::vector<std::uint8_t> jpeg = Encode(image, ".jpg");
+  // APP1 right after the start-of-image marker; its length counts itself.
+  std::vector<std::uint8_t> app1 = {0xFF, 0xE1, std::uint8_t((length + 2) >> 8),
+                                    std::uint8_t((length + 2) & 0xFF)};
+  app1.insert(app1.end(), block, block + length);
+  free(block);
+  jpeg.insert(jpeg.begin() + 2, app1.begin(), app1.end());
+  return jpeg;
+}
+
+TEST_CASE("the focal length in pixels comes from a JPEG's EXIF when it says enough") {
+  const cv::Mat image = MakeTexture(640, 480, 3);
+  SECTION("35 mm equivalent: scaled from the 36 mm film width to the longer side") {
+    const DecodedImage decoded =
+        DecodeImageBytes(JpegWithExif(image, {{EXIF_TAG_FOCAL_LENGTH_IN_35MM_FILM, 50}}));
+    REQUIRE(decoded.ok());
+    REQUIRE(decoded.exif_focal_length_px);
+    CHECK(*decoded.exif_focal_length_px == Approx(50.0 / 36.0 * 640));
+  }
+  SECTION("focal length in mm and the focal plane's resolution") {
+    // 5.8 mm at 2 000 px/cm on a sensor 1 280 px wide, stored at 640: 580 px.
+    const DecodedImage decoded = DecodeImageBytes(
+        JpegWithExif(image, {{EXIF_TAG_FOCAL_LENGTH, 5.8},
+                             {EXIF_TAG_FOCAL_PLANE_X_RESOLUTION, 2000},
+                             {EXIF_TAG_FOCAL_PLANE_RESOLUTION_UNIT, 3},
+                             {EXIF_TAG_PIXEL_X_DIMENSION, 1280}}));
+    REQUIRE(decoded.exif_focal_length_px);
+    CHECK(*decoded.exif_focal_length_px == Approx(5.8 * 200 * 0.5));
+  }
+  SECTION("a focal length in mm alone, no EXIF, or a PNG give none") {
+    CHECK_FALSE(DecodeImageBytes(JpegWithExif(image, {{EXIF_TAG_FOCAL_LENGTH, 5.8}}))
+                    .exif_focal_length_px);
+    CHECK_FALSE(DecodeImageBytes(Encode(image, ".jpg")).exif_focal_length_px);
+    CHECK_FALSE(DecodeImageBytes(Encode(image, ".png")).exif_focal_length_px);
+  }
 }
 
 }  // namespace

@@ -1,0 +1,105 @@
+// `flysfm live --camfi` as a process against the emulator: a clean stop on
+// SIGINT, and a SIGKILL followed by a restart on the same --out.
+
+#include <algorithm>
+#include <regex>
+#include <set>
+
+#include <catch2/catch.hpp>
+#include <nlohmann/json.hpp>
+
+#include "io/camfi_client.h"
+#include "io/camfi_emulator.h"
+#include "io/image_markers.h"
+#include "tests/io/camfi_fixture.h"
+#include "tests/tools/live_process.h"
+
+namespace flysfm {
+namespace {
+
+constexpr int kShots = 10;
+
+std::vector<std::string> LiveArgs(const CamfiEmulator& emulator,
+                                  const std::filesystem::path& out) {
+  return {"live",         "--camfi",
+          "127.0.0.1:" + std::to_string(emulator.http_port()),
+          "--camfi-events-port", std::to_string(emulator.event_port()),
+          "--camfi-reconcile-seconds", "0.5",
+          "--out",        out.string()};
+}
+
+std::set<std::string> LoggedNames(const std::filesystem::path& out) {
+  std::set<std::string> names;
+  for (const std::string& line : testing::LinesStartingWith(out / "log.jsonl", "{")) {
+    names.insert(nlohmann::json::parse(line)["name"].get<std::string>());
+  }
+  return names;
+}
+
+TEST_CASE("live: SIGINT ends the run cleanly with every received shot processed") {
+  const std::filesystem::path dir = testing::FreshTempDir("live_sigint");
+  CamfiEmulator emulator(
+      testing::LoopbackEmulator(testing::WriteTestJpegs(dir / "shots", kShots), 0.3));
+  const std::filesystem::path out = dir / "out";
+  const pid_t pid = testing::SpawnFlysfm(LiveArgs(emulator, out), dir / "live.txt");
+  const std::filesystem::path journal = out / "images" / "journal.tsv";
+  REQUIRE(testing::WaitUntil(
+      [&] { return testing::LinesStartingWith(journal, "stored\t").size() >= 3; }, 20));
+  ::kill(pid, SIGINT);
+  CHECK(testing::WaitForExit(pid, 20) == 0);
+  const std::size_t received = testing::LinesStartingWith(journal, "stored\t").size();
+  const nlohmann::json summary = nlohmann::json::parse(testing::ReadText(out / "summary.json"));
+  CHECK(summary["images_in"].get<std::size_t>() == received);
+  CHECK(LoggedNames(out).size() == received);
+  CHECK(std::filesystem::exists(out / "sparse"));
+  std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("live: after SIGKILL a restart loses nothing and fetches nothing twice") {
+  const std::filesystem::path dir = testing::FreshTempDir("live_sigkill");
+  const std::vector<std::filesystem::path> images =
+      testing::WriteTestJpegs(dir / "shots", kShots);
+  CamfiEmulator emulator(testing::LoopbackEmulator(images, 0.3));
+  const std::filesystem::path out = dir / "out";
+  const std::filesystem::path journal = out / "images" / "journal.tsv";
+  const pid_t first = testing::SpawnFlysfm(LiveArgs(emulator, out), dir / "first.txt");
+  REQUIRE(testing::WaitUntil(
+      [&] { return testing::LinesStartingWith(journal, "stored\t").size() >= 3; }, 20));
+  ::kill(first, SIGKILL);
+  REQUIRE(testing::WaitForExit(first, 5) == 128 + SIGKILL);
+  const std::vector<std::string> stored_before = testing::LinesStartingWith(journal, "stored\t");
+  const std::size_t requests_before = emulator.RequestLog().size();
+
+  std::vector<std::string> args = LiveArgs(emulator, out);
+  args.insert(args.end(), {"--max-images", std::to_string(kShots)});
+  const pid_t second = testing::SpawnFlysfm(args, dir / "second.txt");
+  REQUIRE(testing::WaitForExit(second, 40) == 0);
+
+  const std::vector<std::string> stored = testing::LinesStartingWith(journal, "stored\t");
+  CHECK(stored.size() == std::size_t(kShots));
+  // A shot stored before the kill is never requested again.
+  const std::vector<std::string> log = emulator.RequestLog();
+  for (const std::string& line : stored_before) {
+    const std::string device_path = line.substr(7, line.find('\t', 7) - 7);
+    const std::string request = "GET /raw/" + EncodeDevicePath(device_path);
+    CHECK(std::find(log.begin() + std::ptrdiff_t(requests_before), log.end(), request) ==
+          log.end());
+  }
+  std::set<std::string> names;
+  for (int i = 0; i < kShots; ++i) {
+    const std::string name = StoreNameForDevicePath(emulator.DevicePath(i));
+    names.insert(name);
+    CHECK(ReadFileBytes(out / "images" / name) == ReadFileBytes(images[std::size_t(i)]));
+  }
+  CHECK(LoggedNames(out) == names);
+  // The second run re-fed what the first had stored, then went on live.
+  std::smatch match;
+  const std::string output = testing::ReadText(dir / "second.txt");
+  REQUIRE(std::regex_search(output, match, std::regex("camfi: (\\d+) stored, (\\d+) replayed")));
+  CHECK(std::stoul(match[2]) >= stored_before.size());
+  CHECK(std::stoul(match[1]) + std::stoul(match[2]) == std::size_t(kShots));
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace flysfm
