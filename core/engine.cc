@@ -128,8 +128,8 @@ PreparedFrame Engine::Prepare(const Frame& frame, const Options& options) {
   stopwatch = Stopwatch();
   prepared.image = std::move(decoded.image);
   prepared.exif_focal_length_px = decoded.exif_focal_length_px;
-  prepared.features = ExtractFeatures(prepared.image, options.sift);
   cv::cvtColor(prepared.image, prepared.grey, cv::COLOR_BGR2GRAY);
+  prepared.features = ExtractFeatures(prepared.image, prepared.grey, options.sift);
   prepared.features_ms = stopwatch.ElapsedMs();
   return prepared;
 }

@@ -16,18 +16,28 @@
 
 namespace flysfm {
 
+// What the two-view estimators share: the matches, points1[i] <-> points2[i],
+// held by reference for the duration of a RANSAC run.
+class TwoViewData {
+ public:
+  TwoViewData(const std::vector<Eigen::Vector2d>& points1,
+              const std::vector<Eigen::Vector2d>& points2)
+      : points1_(points1), points2_(points2) {}
+  int NumData() const { return static_cast<int>(points1_.size()); }
+
+ protected:
+  const std::vector<Eigen::Vector2d>& points1_;
+  const std::vector<Eigen::Vector2d>& points2_;
+};
+
 // F from matches in pixels: 7-point samples, normalized 8-point least squares
 // for LO, error = Sampson distance (pixels).
-class FundamentalEstimator {
+class FundamentalEstimator : public TwoViewData {
  public:
+  using TwoViewData::TwoViewData;
   using Model = Eigen::Matrix3d;
   static constexpr int kMinSampleSize = 7;
 
-  FundamentalEstimator(const std::vector<Eigen::Vector2d>& points1,
-                       const std::vector<Eigen::Vector2d>& points2)
-      : points1_(points1), points2_(points2) {}
-
-  int NumData() const { return static_cast<int>(points1_.size()); }
   void MinimalSolve(const std::vector<int>& sample, std::vector<Model>* models) const;
   void NonMinimalSolve(const std::vector<int>& indices, const Model& initial,
                        std::vector<Model>* models) const;
@@ -35,25 +45,17 @@ class FundamentalEstimator {
   double SquaredError(const Model& F, int i) const {
     return FundamentalSampsonError(F, points1_[i], points2_[i]);
   }
-
- private:
-  const std::vector<Eigen::Vector2d>& points1_;
-  const std::vector<Eigen::Vector2d>& points2_;
 };
 
 // H from matches: 4-point DLT samples, DLT least squares for LO and a
 // Levenberg-Marquardt refinement, error = Sampson distance (units of the
 // points).
-class HomographyEstimator {
+class HomographyEstimator : public TwoViewData {
  public:
+  using TwoViewData::TwoViewData;
   using Model = Eigen::Matrix3d;
   static constexpr int kMinSampleSize = 4;
 
-  HomographyEstimator(const std::vector<Eigen::Vector2d>& points1,
-                      const std::vector<Eigen::Vector2d>& points2)
-      : points1_(points1), points2_(points2) {}
-
-  int NumData() const { return static_cast<int>(points1_.size()); }
   void MinimalSolve(const std::vector<int>& sample, std::vector<Model>* models) const;
   void NonMinimalSolve(const std::vector<int>& indices, const Model& initial,
                        std::vector<Model>* models) const;
@@ -61,25 +63,17 @@ class HomographyEstimator {
   double SquaredError(const Model& H, int i) const {
     return HomographySampsonError(H, points1_[i], points2_[i]);
   }
-
- private:
-  const std::vector<Eigen::Vector2d>& points1_;
-  const std::vector<Eigen::Vector2d>& points2_;
 };
 
 // E from matches in normalized image coordinates: 5-point samples, 5-point
 // least squares for LO, a Levenberg-Marquardt refinement of the relative
 // pose on the Sampson error, error = Sampson distance (normalized units).
-class EssentialEstimator {
+class EssentialEstimator : public TwoViewData {
  public:
+  using TwoViewData::TwoViewData;
   using Model = Eigen::Matrix3d;
   static constexpr int kMinSampleSize = 5;
 
-  EssentialEstimator(const std::vector<Eigen::Vector2d>& points1,
-                     const std::vector<Eigen::Vector2d>& points2)
-      : points1_(points1), points2_(points2) {}
-
-  int NumData() const { return static_cast<int>(points1_.size()); }
   void MinimalSolve(const std::vector<int>& sample, std::vector<Model>* models) const;
   void NonMinimalSolve(const std::vector<int>& indices, const Model& initial,
                        std::vector<Model>* models) const;
@@ -87,10 +81,6 @@ class EssentialEstimator {
   double SquaredError(const Model& E, int i) const {
     return FundamentalSampsonError(E, points1_[i], points2_[i]);
   }
-
- private:
-  const std::vector<Eigen::Vector2d>& points1_;
-  const std::vector<Eigen::Vector2d>& points2_;
 };
 
 // cam_from_world [R | t] from normalized image points and world points: P3P

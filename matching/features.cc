@@ -25,17 +25,22 @@ void RootSiftInPlace(FeatureDescriptors* descriptors) {
 }
 
 FeatureSet ExtractFeatures(const cv::Mat& image, const SiftOptions& options) {
+  if (image.empty() || image.depth() != CV_8U || image.channels() != 3) {
+    return ExtractFeatures(image, image, options);
+  }
+  cv::Mat grey;
+  cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
+  return ExtractFeatures(image, grey, options);
+}
+
+FeatureSet ExtractFeatures(const cv::Mat& image, cv::Mat grey, const SiftOptions& options) {
   if (!options.Check()) throw std::invalid_argument("invalid SiftOptions");
   if (image.empty()) throw std::invalid_argument("ExtractFeatures: empty image");
   if (image.depth() != CV_8U || (image.channels() != 1 && image.channels() != 3)) {
     throw std::invalid_argument("ExtractFeatures: need an 8-bit grey or BGR image");
   }
-
-  cv::Mat grey;
-  if (image.channels() == 3) {
-    cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
-  } else {
-    grey = image;
+  if (grey.size() != image.size() || grey.type() != CV_8UC1) {
+    throw std::invalid_argument("ExtractFeatures: `grey` must be the image in 8-bit grey");
   }
   const int long_side = std::max(image.cols, image.rows);
   double scale = 1.0;  // full resolution / extraction resolution

@@ -71,6 +71,9 @@ struct SiftOptions {
 // non-8-bit image is bad input: std::invalid_argument. An image without
 // texture gives an empty set.
 FeatureSet ExtractFeatures(const cv::Mat& image, const SiftOptions& options);
+// The same when the caller has the image in grey already (the engine keeps it
+// for LSM): `grey` is `image` converted to 8-bit grey, or `image` itself.
+FeatureSet ExtractFeatures(const cv::Mat& image, cv::Mat grey, const SiftOptions& options);
 
 // In place: L1-normalise each row, then take the element-wise square root
 // (Arandjelovic & Zisserman 2012), so the Euclidean distance of RootSIFT

@@ -99,5 +99,22 @@ TEST_CASE("a blank image has no features and bad images or options are rejected"
   CHECK_THROWS_AS(ExtractFeatures(MakeTexture(64, 64, 1), bad), std::invalid_argument);
 }
 
+TEST_CASE("with the grey image given, extraction is the same, and a wrong grey is rejected") {
+  const cv::Mat image = MakeTexture(320, 240, 7, true);
+  cv::Mat grey;
+  cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
+  const FeatureSet own = ExtractFeatures(image, SiftOptions());
+  const FeatureSet given = ExtractFeatures(image, grey, SiftOptions());
+  REQUIRE(given.size() == own.size());
+  CHECK(given.descriptors == own.descriptors);
+  for (int i = 0; i < own.size(); ++i) {
+    CHECK(given.keypoints[i].x == own.keypoints[i].x);
+    CHECK(given.keypoints[i].r == own.keypoints[i].r);
+  }
+  CHECK_THROWS_AS(ExtractFeatures(image, image, SiftOptions()), std::invalid_argument);
+  CHECK_THROWS_AS(ExtractFeatures(image, cv::Mat(10, 10, CV_8U), SiftOptions()),
+                  std::invalid_argument);
+}
+
 }  // namespace
 }  // namespace flysfm
