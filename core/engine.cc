@@ -2,109 +2,92 @@
 
 #include <algorithm>
 #include <chrono>
-#include <cmath>
-#include <limits>
-#include <map>
 #include <stdexcept>
+#include <utility>
 
 #include <opencv2/imgproc.hpp>
 
 #include "core/scene_bundle.h"
-#include "geometry/check.h"
 #include "matching/image_decode.h"
 
 namespace flysfm {
 namespace {
 
-class Stopwatch {
- public:
-  double ElapsedMs() const {
-    return std::chrono::duration<double, std::milli>(
-               std::chrono::steady_clock::now() - start_)
-        .count();
-  }
+double MillisecondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+      .count();
+}
 
- private:
-  std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
-};
-
-Eigen::Vector2d KeypointPixel(const Keypoint& keypoint) {
-  return Eigen::Vector2d(keypoint.x, keypoint.y);
+// Adds `from`'s stage times to `to`'s.
+void AddTimes(const StageTimes& from, StageTimes* to) {
+  for (const auto& [name, member] : StageTimes::Stages()) to->*member += from.*member;
 }
 
 }  // namespace
 
-const char* ImageStatusName(ImageStatus status) {
-  switch (status) {
-    case ImageStatus::kRegistered: return "registered";
-    case ImageStatus::kPending: return "pending";
-    case ImageStatus::kRejected: return "rejected";
+bool Engine::Options::Check(std::string* problem) const {
+  const std::pair<bool, const char*> checks[] = {
+      {sift.Check(), "sift"},
+      {retrieval.Check(), "retrieval"},
+      {verification.Check(), "verification"},
+      {max_verified_pairs >= 1, "max_verified_pairs (>= 1)"},
+      {lsm_images.Check(), "lsm_images"},
+      {lsm_images.num_pyramid_levels >= registration.densify.num_pyramid_levels,
+       "lsm_images.num_pyramid_levels (>= registration.densify.num_pyramid_levels)"},
+      {initialization.Check(), "initialization"},
+      {registration.Check(), "registration"},
+      {triangulation.Check(), "triangulation"},
+      {ba_tree.Check(), "ba_tree"},
+      {local_ba.Check(), "local_ba"},
+      {ba_max_constant_observers >= 0, "ba_max_constant_observers (>= 0)"},
+      {global_ba.Check(), "global_ba"},
+      {filter_max_error_px > 0, "filter_max_error_px (> 0)"},
+      {filter_min_tri_angle_deg >= 0, "filter_min_tri_angle_deg (>= 0)"},
+      {unknown_focal_factor > 0, "unknown_focal_factor (> 0)"},
+  };
+  for (const auto& [ok, name] : checks) {
+    if (!ok) {
+      if (problem) *problem = std::string("invalid engine option: ") + name;
+      return false;
+    }
   }
-  return "unknown";
+  return true;
 }
 
-bool Engine::Options::Check() const {
-  return two_view.Check() && absolute_pose.Check() && triangulation.Check() &&
-         sift.Check() && retrieval.Check() && matching.Check() && lsm.Check() &&
-         ba_tree.Check() && ba.Check() && global_ba.Check() &&
-         densify.Check() && densify_max_references >= 1 && lsm_cache_megabytes >= 0 &&
-         densify_max_candidates >= 0 &&
-         max_verified_pairs >= 1 && ba_max_constant_observers >= 0 &&
-         init_min_num_inliers >= 5 &&
-         init_min_tri_angle_deg >= 0 && init_min_num_points >= 2 &&
-         min_num_correspondences >= 4 && filter_max_error_px > 0 &&
-         filter_min_tri_angle_deg >= 0 && unknown_focal_factor > 0;
-}
+namespace {
 
-BundleAdjuster::Options Engine::Options::LocalBundleOptions() {
-  BundleAdjuster::Options options;
-  // The block starts close to its optimum (each of its images was adjusted
-  // when it registered): on fr1_xyz, 3 iterations gave the same ATE as 10
-  // (0.998 cm on 150 frames, after the final global BA).
-  options.max_num_iterations = 3;
+const Engine::Options& Checked(const Engine::Options& options) {
+  std::string problem;
+  if (!options.Check(&problem)) throw std::invalid_argument(problem);
   return options;
 }
 
-SiftOptions Engine::Options::DefaultSiftOptions() {
-  SiftOptions options;
-  // Matching grows with the square of the count and every later stage with
-  // the count: 1 500 kept fr1_xyz's ATE of 2 000 (1.09 cm on 120 frames) at
-  // a little over half the matching time.
-  options.max_num_features = 1500;
-  return options;
-}
-
-HierarchicalAssociationTree::Options Engine::Options::DefaultTreeOptions() {
-  HierarchicalAssociationTree::Options options;
-  // The paper's top-8 comes from photo sets. In a video the top-8 of the
-  // top-8 are mostly new images again, and ripple 2 alone held 12 or more;
-  // top-5 halves the refined block (about 12 images) at the same ATE.
-  options.top_n = 5;
-  return options;
-}
-
-TriangulationOptions Engine::Options::DefaultTriangulationOptions() {
-  TriangulationOptions options;
-  // A track has a few to a few tens of observations, so a few hundred pair
-  // samples cover it; without a bound, a keypoint whose rays are all nearly
-  // parallel (adjacent video frames) would draw the RANSAC maximum.
-  options.ransac.max_iterations = 200;
-  return options;
-}
+}  // namespace
 
 Engine::Engine(const Options& options, std::optional<Camera> camera,
                std::shared_ptr<const RetrievalModel> retrieval_model)
-    : options_(options),
+    : options_(Checked(options)),
       known_camera_(std::move(camera)),
       retriever_(retrieval_model ? ImageRetriever(options.retrieval, retrieval_model)
-                                 : ImageRetriever(options.retrieval)) {
-  if (!options_.Check()) throw std::invalid_argument("invalid engine options");
+                                 : ImageRetriever(options.retrieval)),
+      lsm_images_(options.lsm_images),
+      verifier_(options.verification, &reconstruction_, &lsm_images_),
+      initializer_(options.initialization),
+      registrar_(options.registration, &matches_, &reconstruction_, &lsm_images_),
+      triangulator_(options.triangulation, &matches_, &reconstruction_,
+                    [this](const TrackElement& element) -> std::array<std::uint8_t, 3> {
+                      const std::vector<Keypoint>& keypoints =
+                          features_.at(element.image_id).keypoints;
+                      if (element.point2D_idx >= keypoints.size()) return {0, 0, 0};
+                      const Keypoint& keypoint = keypoints[element.point2D_idx];
+                      return {keypoint.r, keypoint.g, keypoint.b};
+                    }) {
   if (known_camera_ && !known_camera_->IsValid()) {
     throw std::invalid_argument("invalid camera " + known_camera_->ToString());
   }
   if (!known_camera_) {
     // Guessed intrinsics are only a start: every BA refines them.
-    for (BundleAdjuster::Options* ba : {&options_.ba, &options_.global_ba}) {
+    for (BundleAdjuster::Options* ba : {&options_.local_ba, &options_.global_ba}) {
       ba->refine_focal_length = true;
       ba->refine_extra_params = true;
     }
@@ -117,20 +100,20 @@ PreparedFrame Engine::Prepare(const Frame& frame, const Options& options) {
   prepared.frame.path = frame.path;
   prepared.frame.timestamp = frame.timestamp;
   prepared.frame.arrival = frame.arrival;
-  Stopwatch stopwatch;
+  auto start = std::chrono::steady_clock::now();
   DecodedImage decoded = frame.bytes.empty() ? DecodeImageFile(frame.path.string())
                                              : DecodeImageBytes(frame.bytes);
-  prepared.decode_ms = stopwatch.ElapsedMs();
+  prepared.decode_ms = MillisecondsSince(start);
   if (!decoded.ok()) {
     prepared.error = std::move(decoded.error);
     return prepared;
   }
-  stopwatch = Stopwatch();
+  start = std::chrono::steady_clock::now();
   prepared.image = std::move(decoded.image);
   prepared.exif_focal_length_px = decoded.exif_focal_length_px;
   cv::cvtColor(prepared.image, prepared.grey, cv::COLOR_BGR2GRAY);
   prepared.features = ExtractFeatures(prepared.image, prepared.grey, options.sift);
-  prepared.features_ms = stopwatch.ElapsedMs();
+  prepared.features_ms = MillisecondsSince(start);
   return prepared;
 }
 
@@ -139,77 +122,71 @@ std::vector<ImageResult> Engine::AddImage(const Frame& frame) {
 }
 
 std::vector<ImageResult> Engine::AddImage(PreparedFrame prepared) {
-  const Stopwatch total;
   std::vector<ImageResult> results(1);
-  ImageResult& result = results.front();
-  result.name = prepared.frame.name;
-  result.times.decode = prepared.decode_ms;
-  result.times.features = prepared.features_ms;
-  const double prepare_ms = prepared.decode_ms + prepared.features_ms;
+  results[0].name = prepared.frame.name;
+  results[0].times.decode = prepared.decode_ms;
+  results[0].times.features = prepared.features_ms;
 
-  // Bad bytes are a counted rejection, never a crash.
+  // 1. Bad bytes are a counted rejection, never a crash.
   if (!prepared.error.empty()) {
     ++num_rejected_;
-    result.status = ImageStatus::kRejected;
-    result.reason = prepared.error;
-    Finalize(&result);
-    result.times.total = prepare_ms + total.ElapsedMs();
+    results[0].status = ImageStatus::kRejected;
+    results[0].reason = std::move(prepared.error);
+    Finalize(&results[0]);
     return results;
   }
 
-  std::vector<Eigen::Vector2d> keypoints;
-  keypoints.reserve(prepared.features.keypoints.size());
-  for (const Keypoint& keypoint : prepared.features.keypoints) {
-    keypoints.push_back(KeypointPixel(keypoint));
-  }
-  const image_t image_id = reconstruction_.AddImage(
-      prepared.frame.name, CameraFor(prepared.image.cols, prepared.image.rows,
-                                     prepared.exif_focal_length_px),
-      keypoints);
-  result.image_id = image_id;
-  result.num_features = prepared.features.size();
-  ImageState& state = states_[image_id];
-  state.grey = prepared.grey;
-
-  // Retrieval: query the images seen so far, then insert this one.
-  Stopwatch stopwatch;
-  const RetrievalDescriptor descriptor =
-      retriever_.Describe(prepared.image, prepared.features);
-  const std::vector<RetrievalCandidate> candidates = retriever_.Query(descriptor);
-  retriever_.Insert(int(image_id), prepared.image, prepared.features, descriptor);
-  state.features = std::move(prepared.features);
-  result.num_candidates = int(candidates.size());
-  result.times.retrieval = stopwatch.ElapsedMs();
-
-  // Matching, two-view geometry (GRIC) and LSM refinement, per candidate.
-  // Until the model exists every candidate is matched: initialisation needs
-  // the wide-baseline pairs, which rank low in retrieval.
-  std::vector<char> lsm_refined;
-  if (options_.lsm_refinement) lsm_refined.assign(result.num_features, 0);
-  for (const RetrievalCandidate& candidate : candidates) {
-    if (initialized_ && result.num_verified_pairs >= options_.max_verified_pairs) break;
-    MatchAndVerify(image_id, image_t(candidate.image_id),
-                   options_.lsm_refinement ? &lsm_refined : nullptr, &result);
+  // 2. The image and its features (extracted ahead) enter the model,
+  // unregistered.
+  image_t image_id;
+  {
+    ScopedStageTimer timer(&results[0].times.features);
+    std::vector<Eigen::Vector2d> keypoints;
+    keypoints.reserve(prepared.features.keypoints.size());
+    for (const Keypoint& keypoint : prepared.features.keypoints) {
+      keypoints.emplace_back(keypoint.x, keypoint.y);
+    }
+    image_id = reconstruction_.AddImage(
+        prepared.frame.name,
+        CameraFor(prepared.image.cols, prepared.image.rows, prepared.exif_focal_length_px),
+        keypoints);
+    lsm_images_.Add(image_id, prepared.grey);
+    results[0].image_id = image_id;
+    results[0].num_features = prepared.features.size();
   }
 
-  // Initialisation while no model exists, else registration; either way the
-  // image waits in the pending pool until it registers, and each image that
-  // registers may let waiting ones register too.
-  pending_.push_back(image_id);
+  // 3. Retrieval: the top-N images seen so far, then this one is inserted.
+  std::vector<RetrievalCandidate> candidates;
+  {
+    ScopedStageTimer timer(&results[0].times.retrieval);
+    const RetrievalDescriptor descriptor =
+        retriever_.Describe(prepared.image, prepared.features);
+    candidates = retriever_.Query(descriptor);
+    retriever_.Insert(image_id, prepared.image, prepared.features, descriptor);
+    features_[image_id] = std::move(prepared.features);
+    results[0].num_candidates = int(candidates.size());
+  }
+
+  // 4-5. Matching, two-view geometry (GRIC) and LSM refinement per candidate.
+  VerifyPairs(image_id, candidates, &results[0]);
+
+  // 6-10. Initialisation while no model exists, else registration,
+  // triangulation and the hierarchical local BA. Either way the image waits
+  // in the pending pool until it registers.
+  pending_.Add(image_id);
   if (!initialized_) {
-    TryInitialize(&result);
+    Initialize(&results[0]);
   } else {
-    state.registered_neighbours_at_last_try = NumRegisteredVerifiedNeighbours(image_id);
-    TryRegister(image_id, &result);
+    pending_.MarkTried(image_id, NumRegisteredNeighbours(image_id));
+    RegisterAndExtend(image_id, &results[0]);
   }
-  std::vector<ImageResult> retried = RetryPending(&result);
-  results.insert(results.end(), std::make_move_iterator(retried.begin()),
-                 std::make_move_iterator(retried.end()));
-  if (result.status != ImageStatus::kRegistered && result.reason.empty()) {
-    result.reason = "no initial pair yet";
+
+  // 11. Each image that registered may let waiting ones register too.
+  RetryPending(&results);
+  if (results[0].status != ImageStatus::kRegistered && results[0].reason.empty()) {
+    results[0].reason = "no initial pair yet";
   }
-  Finalize(&result);
-  result.times.total = prepare_ms + total.ElapsedMs();
+  for (ImageResult& result : results) Finalize(&result);
   return results;
 }
 
@@ -233,412 +210,85 @@ camera_t Engine::CameraFor(int width, int height,
   return camera_id;
 }
 
-void Engine::MatchAndVerify(image_t image_id, image_t other_id,
-                            std::vector<char>* lsm_refined, ImageResult* result) {
-  Stopwatch stopwatch;
-  const ImageState& state = states_.at(image_id);
-  const ImageState& other = states_.at(other_id);
-  std::vector<FeatureMatch> raw = MatchDescriptors(
-      state.features.descriptors, other.features.descriptors, options_.matching);
-  result->times.matching += stopwatch.ElapsedMs();
-
-  stopwatch = Stopwatch();
-  std::vector<FeatureMatch> verified;
-  if (int(raw.size()) >= options_.two_view.min_num_inliers_f) {
-    const Image& image = reconstruction_.image(image_id);
-    const Image& other_image = reconstruction_.image(other_id);
-    std::vector<Eigen::Vector2d> points, other_points;
-    for (const FeatureMatch& match : raw) {
-      points.push_back(image.points2D[match.idx1].xy);
-      other_points.push_back(other_image.points2D[match.idx2].xy);
-    }
-    PairGeometry pair{image_id, other_id,
-                      EstimateCalibratedTwoViewGeometry(
-                          reconstruction_.camera(image.camera_id), points,
-                          reconstruction_.camera(other_image.camera_id), other_points,
-                          options_.two_view)};
-    if (pair.geometry.config != TwoViewConfiguration::kDegenerate) {
-      for (std::size_t i = 0; i < raw.size(); ++i) {
-        if (pair.geometry.inlier_mask[i]) verified.push_back(raw[i]);
-      }
-      if (!initialized_) pair_geometries_.push_back(std::move(pair));
-    }
-  }
-  result->times.verification += stopwatch.ElapsedMs();
-
-  // LSM: refine the new image's keypoint on the candidate's window; a match
-  // that does not converge is an outlier. Keypoints refined in an earlier
-  // pair keep that position.
-  if (lsm_refined && !verified.empty()) {
-    stopwatch = Stopwatch();
+void Engine::VerifyPairs(image_t image_id, const std::vector<RetrievalCandidate>& candidates,
+                         ImageResult* result) {
+  // Until the model exists every candidate is matched: initialisation needs
+  // the wide-baseline pairs, which rank low in retrieval.
+  std::vector<char> lsm_refined(features_.at(image_id).size(), 0);
+  for (const RetrievalCandidate& candidate : candidates) {
+    if (initialized_ && result->num_verified_pairs >= options_.max_verified_pairs) break;
+    const image_t other_id = candidate.image_id;
+    PairVerification pair = verifier_.Verify(
+        image_id, features_.at(image_id).descriptors, other_id,
+        features_.at(other_id).descriptors, lsm_refined, &result->times);
     Image& image = reconstruction_.image(image_id);
-    const Image& other_image = reconstruction_.image(other_id);
-    std::vector<Eigen::Vector2d> other_points, points;
-    std::vector<int> to_refine;
-    for (int i = 0; i < int(verified.size()); ++i) {
-      if ((*lsm_refined)[verified[i].idx1]) continue;
-      to_refine.push_back(i);
-      other_points.push_back(other_image.points2D[verified[i].idx2].xy);
-      points.push_back(image.points2D[verified[i].idx1].xy);
+    for (const auto& [point2D_idx, xy] : pair.refined) {
+      image.points2D[point2D_idx].xy = xy;
+      lsm_refined[point2D_idx] = 1;
     }
-    std::vector<char> keep(verified.size(), 1);
-    if (!to_refine.empty()) {
-      const RefineMatchesResult refined =
-          RefineMatches(LsmPyramid(other_id).front(), LsmPyramid(image_id).front(),
-                        other_points, points, options_.lsm);
-      for (const int i : to_refine) keep[i] = 0;
-      for (const int k : refined.inliers) {
-        const FeatureMatch& match = verified[to_refine[k]];
-        image.points2D[match.idx1].xy = refined.results[k].point2;
-        (*lsm_refined)[match.idx1] = 1;
-        keep[to_refine[k]] = 1;
-      }
-    }
-    std::vector<FeatureMatch> kept;
-    for (std::size_t i = 0; i < verified.size(); ++i) {
-      if (keep[i]) kept.push_back(verified[i]);
-    }
-    result->num_lsm_rejected += int(verified.size() - kept.size());
-    verified = std::move(kept);
-    result->times.lsm += stopwatch.ElapsedMs();
-  }
-  if (int(verified.size()) >= options_.two_view.min_num_inliers_f) {
+    result->num_lsm_rejected += pair.num_lsm_rejected;
+    if (!pair.verified()) continue;
     ++result->num_verified_pairs;
-  } else {
-    verified.clear();
+    if (!initialized_) initializer_.AddPair(image_id, other_id, pair.geometry);
+    matches_.SetMatches(image_id, other_id, std::move(pair.matches));
   }
-  matches_.SetRawMatches(int(image_id), int(other_id), std::move(raw));
-  matches_.SetVerifiedMatches(int(image_id), int(other_id), std::move(verified));
 }
 
-bool Engine::TryInitialize(ImageResult* result) {
-  const Stopwatch stopwatch;
-  // Candidates, best first: most inliers among the well-conditioned pairs.
-  std::vector<const PairGeometry*> candidates;
-  for (const PairGeometry& pair : pair_geometries_) {
-    if (pair.geometry.has_pose &&
-        pair.geometry.config != TwoViewConfiguration::kPanoramic &&
-        pair.geometry.num_inliers >= options_.init_min_num_inliers &&
-        pair.geometry.median_tri_angle_deg >= options_.init_min_tri_angle_deg) {
-      candidates.push_back(&pair);
-    }
+bool Engine::Initialize(ImageResult* result) {
+  std::vector<InitialPair> pairs;
+  {
+    ScopedStageTimer timer(&result->times.registration);
+    pairs = initializer_.RankPairs(reconstruction_, matches_);
   }
-  std::sort(candidates.begin(), candidates.end(), [](const auto* a, const auto* b) {
-    return a->geometry.num_inliers > b->geometry.num_inliers;
-  });
-  for (const PairGeometry* pair : candidates) {
-    const image_t id1 = pair->image_id1;
-    const image_t id2 = pair->image_id2;
-    reconstruction_.RegisterImage(id1, Rigid3d());
-    reconstruction_.RegisterImage(id2, pair->geometry.cam2_from_cam1);
-    Triangulate(id1);
-    if (int(reconstruction_.NumPoints3D()) >= options_.init_min_num_points) {
-      AdjustAndFilter(id2, result);
+  for (const InitialPair& pair : pairs) {
+    // A pair that fails must leave no trace, its BA's intrinsics included:
+    // every image of the same size shares the camera.
+    const std::map<camera_t, Camera> cameras = reconstruction_.cameras();
+    {
+      ScopedStageTimer timer(&result->times.registration);
+      reconstruction_.RegisterImage(pair.image_id1, Rigid3d());
+      reconstruction_.RegisterImage(pair.image_id2, pair.cam2_from_cam1);
     }
-    if (int(reconstruction_.NumPoints3D()) >= options_.init_min_num_points) {
+    TriangulateAndAdjust(pair.image_id2, result);
+    if (int(reconstruction_.NumPoints3D()) >= options_.initialization.min_num_points) {
       initialized_ = true;
-      pair_geometries_.clear();  // only needed until the model exists
-      result->times.registration += stopwatch.ElapsedMs();
+      initializer_.Clear();
       return true;
     }
-    reconstruction_.DeRegisterImage(id1);
-    reconstruction_.DeRegisterImage(id2);
+    ScopedStageTimer timer(&result->times.registration);
+    reconstruction_.DeRegisterImage(pair.image_id1);
+    reconstruction_.DeRegisterImage(pair.image_id2);
+    for (const auto& [camera_id, camera] : cameras) reconstruction_.camera(camera_id) = camera;
+    initializer_.Discard(pair);
   }
-  // Pairs that failed stay candidates only while new images may add points;
-  // a failed pair is not tried again.
-  pair_geometries_.erase(
-      std::remove_if(pair_geometries_.begin(), pair_geometries_.end(),
-                     [&](const PairGeometry& pair) {
-                       return std::find(candidates.begin(), candidates.end(), &pair) !=
-                              candidates.end();
-                     }),
-      pair_geometries_.end());
-  result->times.registration += stopwatch.ElapsedMs();
   return false;
 }
 
-std::vector<std::pair<point2D_t, point3D_t>> Engine::Find2D3DCorrespondences(
-    image_t image_id) {
-  // Each keypoint votes, through every registered verified neighbour, for the
-  // 3D point that neighbour's matched keypoint observes.
-  std::map<point2D_t, std::map<point3D_t, int>> votes;
-  for (const int other_id : matches_.VerifiedNeighbours(int(image_id))) {
-    const Image& other = reconstruction_.image(image_t(other_id));
-    if (!other.IsRegistered()) continue;
-    for (const FeatureMatch& match : matches_.VerifiedMatches(int(image_id), other_id)) {
-      const point3D_t point3D_id = other.points2D[match.idx2].point3D_id;
-      if (point3D_id != kInvalidPoint3DId) ++votes[point2D_t(match.idx1)][point3D_id];
-    }
-  }
-  // The best-supported point per keypoint; a point claimed by several
-  // keypoints goes to the one with most votes.
-  std::map<point3D_t, std::pair<int, point2D_t>> owner;
-  for (const auto& [point2D_idx, counts] : votes) {
-    const auto best = std::max_element(
-        counts.begin(), counts.end(),
-        [](const auto& a, const auto& b) { return a.second < b.second; });
-    auto [it, inserted] = owner.emplace(best->first, std::make_pair(best->second, point2D_idx));
-    if (!inserted && it->second.first < best->second) {
-      it->second = {best->second, point2D_idx};
-    }
-  }
-  std::vector<std::pair<point2D_t, point3D_t>> correspondences;
-  for (const auto& [point3D_id, support] : owner) {
-    correspondences.emplace_back(support.second, point3D_id);
-  }
-  return correspondences;
-}
-
-bool Engine::TryRegister(image_t image_id, ImageResult* result) {
-  Stopwatch stopwatch;
-  std::vector<std::pair<point2D_t, point3D_t>> correspondences =
-      Find2D3DCorrespondences(image_id);
-  result->num_correspondences = int(correspondences.size());
-  if (int(correspondences.size()) < options_.min_num_correspondences) {
-    result->times.registration += stopwatch.ElapsedMs();
-    result->reason = "too few 2D-3D correspondences (" +
-                     std::to_string(correspondences.size()) + ")";
+bool Engine::RegisterAndExtend(image_t image_id, ImageResult* result) {
+  const Registrar::Result registered = registrar_.Register(image_id, &result->times);
+  result->num_correspondences = registered.num_correspondences;
+  result->num_densified = registered.num_densified;
+  result->num_pose_inliers = registered.num_pose_inliers;
+  if (!registered.success) {
+    result->reason = registered.reason;
     return false;
   }
-  const Image& image = reconstruction_.image(image_id);
-  const Camera& camera = reconstruction_.camera(image.camera_id);
-  const auto estimate = [&]() {
-    std::vector<Eigen::Vector2d> pixels;
-    std::vector<Eigen::Vector3d> points;
-    for (const auto& [point2D_idx, point3D_id] : correspondences) {
-      pixels.push_back(reconstruction_.image(image_id).points2D[point2D_idx].xy);
-      points.push_back(reconstruction_.point3D(point3D_id).xyz);
-    }
-    return EstimateAbsolutePose(camera, pixels, points, options_.absolute_pose);
-  };
-  AbsolutePoseResult pose = estimate();
-  result->times.registration += stopwatch.ElapsedMs();
-  if (!pose.success) {
-    result->reason = "no pose from " + std::to_string(correspondences.size()) +
-                     " 2D-3D correspondences";
-    return false;
-  }
-
-  // LSM densification: more 2D-3D correspondences from visible model points,
-  // then the pose again from all of them.
-  if (options_.lsm_densification) {
-    stopwatch = Stopwatch();
-    result->num_densified = Densify(image_id, pose.cam_from_world, &correspondences);
-    result->times.lsm += stopwatch.ElapsedMs();
-    if (result->num_densified > 0) {
-      stopwatch = Stopwatch();
-      AbsolutePoseResult densified = estimate();
-      if (densified.success) pose = std::move(densified);
-      result->num_correspondences = int(correspondences.size());
-      result->times.registration += stopwatch.ElapsedMs();
-    }
-  }
-
-  stopwatch = Stopwatch();
-  reconstruction_.RegisterImage(image_id, pose.cam_from_world);
-  for (std::size_t i = 0; i < correspondences.size(); ++i) {
-    if (pose.inlier_mask[i]) {
-      reconstruction_.AddObservation(correspondences[i].second,
-                                     {image_id, correspondences[i].first});
-    }
-  }
-  result->num_pose_inliers = pose.num_inliers;
-  result->times.registration += stopwatch.ElapsedMs();
-
-  stopwatch = Stopwatch();
-  result->num_new_points = Triangulate(image_id);
-  result->times.triangulation += stopwatch.ElapsedMs();
-
-  AdjustAndFilter(image_id, result);
-  result->status = ImageStatus::kRegistered;
-  result->reason.clear();
+  TriangulateAndAdjust(image_id, result);
   return true;
 }
 
-int Engine::Densify(image_t image_id, const Rigid3d& cam_from_world,
-                    std::vector<std::pair<point2D_t, point3D_t>>* correspondences) {
-  const auto view_of = [&](image_t id, const Rigid3d& pose) {
-    return LsmView{LsmPyramid(id), reconstruction_.camera(reconstruction_.image(id).camera_id),
-                   pose};
-  };
-  // References: the registered neighbours sharing the most verified matches.
-  std::vector<std::pair<int, image_t>> neighbours;
-  for (const int other_id : matches_.VerifiedNeighbours(int(image_id))) {
-    if (reconstruction_.image(image_t(other_id)).IsRegistered()) {
-      neighbours.emplace_back(
-          int(matches_.VerifiedMatches(int(image_id), other_id).size()), image_t(other_id));
-    }
-  }
-  std::sort(neighbours.rbegin(), neighbours.rend());
-  neighbours.resize(std::min<std::size_t>(neighbours.size(), options_.densify_max_references));
-  std::vector<LsmView> references;
-  std::unordered_map<image_t, int> view_index;
-  for (const auto& [count, id] : neighbours) {
-    view_index[id] = int(references.size());
-    references.push_back(view_of(id, *reconstruction_.image(id).cam_from_world));
+void Engine::TriangulateAndAdjust(image_t image_id, ImageResult* result) {
+  // 8. Triangulation, with track continuation, completion and merging.
+  {
+    ScopedStageTimer timer(&result->times.triangulation);
+    const Triangulator::Summary summary = triangulator_.TriangulateImage(image_id);
+    result->num_new_points += summary.num_new_points;
+    result->num_merged_points += summary.num_merged;
+    result->num_completed += summary.num_continued + summary.num_completed;
   }
 
-  // Candidates: the references' points without a correspondence here yet.
-  std::unordered_map<point3D_t, bool> taken;
-  for (const auto& correspondence : *correspondences) taken[correspondence.second] = true;
-  std::vector<DensifyCandidate> candidates;
-  std::vector<point3D_t> candidate_ids;
-  for (const auto& [count, id] : neighbours) {
-    for (const Point2D& point2D : reconstruction_.image(id).points2D) {
-      if (!point2D.HasPoint3D() || !taken.emplace(point2D.point3D_id, true).second) {
-        continue;
-      }
-      const Point3D& point = reconstruction_.point3D(point2D.point3D_id);
-      DensifyCandidate candidate{point.xyz, {}};
-      for (const TrackElement& element : point.track) {
-        const auto it = view_index.find(element.image_id);
-        if (it != view_index.end()) {
-          candidate.observations.push_back(
-              {it->second,
-               reconstruction_.image(element.image_id).points2D[element.point2D_idx].xy});
-        }
-      }
-      candidates.push_back(std::move(candidate));
-      candidate_ids.push_back(point2D.point3D_id);
-    }
-  }
-  if (candidates.empty()) return 0;
-  // The best-established points first (longest tracks), up to the cap.
-  std::vector<int> order(candidates.size());
-  for (std::size_t i = 0; i < order.size(); ++i) order[i] = int(i);
-  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
-    return reconstruction_.point3D(candidate_ids[a]).track.size() >
-           reconstruction_.point3D(candidate_ids[b]).track.size();
-  });
-  order.resize(std::min<std::size_t>(order.size(), options_.densify_max_candidates));
-  std::vector<DensifyCandidate> selected;
-  std::vector<point3D_t> selected_ids;
-  for (const int i : order) {
-    selected.push_back(std::move(candidates[i]));
-    selected_ids.push_back(candidate_ids[i]);
-  }
-  candidates = std::move(selected);
-  candidate_ids = std::move(selected_ids);
-
-  const DensifyResult densified = flysfm::Densify(view_of(image_id, cam_from_world),
-                                                  references, candidates, options_.densify);
-  for (const DensifyMatch& match : densified.matches) {
-    const point2D_t point2D_idx = reconstruction_.AddPoint2D(image_id, match.point2D);
-    correspondences->emplace_back(point2D_idx, candidate_ids[match.candidate]);
-  }
-  return int(densified.matches.size());
-}
-
-std::vector<LsmImage> Engine::LsmPyramid(image_t image_id) {
-  const auto it = lsm_pyramids_.find(image_id);
-  if (it != lsm_pyramids_.end()) {
-    lsm_recency_.splice(lsm_recency_.begin(), lsm_recency_, it->second.recency);
-    return it->second.levels;
-  }
-  CachedPyramid pyramid;
-  pyramid.levels =
-      BuildLsmPyramid(states_.at(image_id).grey, options_.densify.num_pyramid_levels);
-  for (const LsmImage& level : pyramid.levels) pyramid.bytes += level.ByteSize();
-  lsm_recency_.push_front(image_id);
-  pyramid.recency = lsm_recency_.begin();
-  lsm_cache_bytes_ += pyramid.bytes;
-  std::vector<LsmImage> levels = pyramid.levels;
-  lsm_pyramids_.emplace(image_id, std::move(pyramid));
-  const std::size_t budget = std::size_t(options_.lsm_cache_megabytes) << 20;
-  while (lsm_cache_bytes_ > budget && lsm_recency_.size() > 1) {
-    const auto evicted = lsm_pyramids_.find(lsm_recency_.back());
-    lsm_cache_bytes_ -= evicted->second.bytes;
-    lsm_pyramids_.erase(evicted);
-    lsm_recency_.pop_back();
-  }
-  return levels;
-}
-
-int Engine::Triangulate(image_t image_id) {
-  const Image& image = reconstruction_.image(image_id);
-  const std::size_t points_before = reconstruction_.NumPoints3D();
-
-  // Per keypoint of this image: the registered keypoints matched to it that
-  // observe nothing yet (a new track), and the points matched ones observe
-  // (continuations of existing tracks).
-  std::map<point2D_t, std::vector<TrackElement>> new_tracks;
-  std::map<point2D_t, std::vector<point3D_t>> continuations;
-  for (const int other_id : matches_.VerifiedNeighbours(int(image_id))) {
-    const Image& other = reconstruction_.image(image_t(other_id));
-    if (!other.IsRegistered()) continue;
-    for (const FeatureMatch& match : matches_.VerifiedMatches(int(image_id), other_id)) {
-      if (image.points2D[match.idx1].HasPoint3D()) continue;
-      const point3D_t other_point = other.points2D[match.idx2].point3D_id;
-      if (other_point != kInvalidPoint3DId) {
-        continuations[point2D_t(match.idx1)].push_back(other_point);
-      } else {
-        new_tracks[point2D_t(match.idx1)].push_back({image_t(other_id), point2D_t(match.idx2)});
-      }
-    }
-  }
-
-  // Continuation: the point that reprojects best, if within the threshold and
-  // not yet seen in this image.
-  for (const auto& [point2D_idx, point3D_ids] : continuations) {
-    double best_error = options_.triangulation.max_error_px;
-    point3D_t best = kInvalidPoint3DId;
-    for (const point3D_t point3D_id : point3D_ids) {
-      const Point3D& point = reconstruction_.point3D(point3D_id);
-      const bool seen_here =
-          std::any_of(point.track.begin(), point.track.end(),
-                      [&](const TrackElement& e) { return e.image_id == image_id; });
-      const double error = reconstruction_.ReprojectionError(image_id, point2D_idx, point.xyz);
-      if (!seen_here && error < best_error) {
-        best_error = error;
-        best = point3D_id;
-      }
-    }
-    if (best != kInvalidPoint3DId) reconstruction_.AddObservation(best, {image_id, point2D_idx});
-  }
-
-  // New tracks: RANSAC multi-view triangulation over this keypoint and its
-  // unobserved matches.
-  const Keypoint* keypoints = states_.at(image_id).features.keypoints.data();
-  const int num_keypoints = states_.at(image_id).features.size();
-  for (auto& [point2D_idx, elements] : new_tracks) {
-    if (image.points2D[point2D_idx].HasPoint3D()) continue;
-    elements.insert(elements.begin(), {image_id, point2D_idx});
-    std::vector<TriangulationObservation> observations;
-    std::vector<TrackElement> usable;
-    for (const TrackElement& element : elements) {
-      const Image& observer = reconstruction_.image(element.image_id);
-      // One observation per image, each keypoint still free.
-      if (observer.points2D[element.point2D_idx].HasPoint3D() ||
-          std::any_of(usable.begin(), usable.end(), [&](const TrackElement& e) {
-            return e.image_id == element.image_id;
-          })) {
-        continue;
-      }
-      observations.push_back({*observer.cam_from_world,
-                              &reconstruction_.camera(observer.camera_id),
-                              observer.points2D[element.point2D_idx].xy});
-      usable.push_back(element);
-    }
-    if (usable.size() < 2) continue;
-    const TriangulationResult triangulated =
-        EstimateTriangulation(observations, options_.triangulation);
-    if (!triangulated.success || !triangulated.inlier_mask[0]) continue;
-    std::vector<TrackElement> track;
-    for (std::size_t i = 0; i < usable.size(); ++i) {
-      if (triangulated.inlier_mask[i]) track.push_back(usable[i]);
-    }
-    std::array<std::uint8_t, 3> color = {0, 0, 0};
-    if (int(point2D_idx) < num_keypoints) {
-      const Keypoint& keypoint = keypoints[point2D_idx];
-      color = {keypoint.r, keypoint.g, keypoint.b};
-    }
-    reconstruction_.AddPoint3D(triangulated.point, track, color);
-  }
-  return int(reconstruction_.NumPoints3D() - points_before);
-}
-
-void Engine::AdjustAndFilter(image_t image_id, ImageResult* result) {
-  const Stopwatch stopwatch;
+  // 9. Hierarchical weighted local BA over the association tree; 10. filter.
+  ScopedStageTimer timer(&result->times.ba);
   HierarchicalAssociationTree::Options tree_options = options_.ba_tree;
   if (!options_.hierarchical_weights) {
     tree_options.k = 1.0;
@@ -646,107 +296,90 @@ void Engine::AdjustAndFilter(image_t image_id, ImageResult* result) {
   }
   const HierarchicalAssociationTree tree = HierarchicalAssociationTree::Build(
       int(image_id),
-      [&](int id) { return RegisteredNeighbours(image_t(id), tree_options.top_n); },
+      [&](int id) { return RetrievalNeighbours(image_t(id), tree_options.top_n); },
       tree_options);
   std::unordered_map<image_t, double> weights;
   for (const auto& ripple : tree.ripples()) {
     for (const int id : ripple) weights[image_t(id)] = tree.WeightOf(id);
   }
-  const SceneBundleResult adjusted =
-      AdjustLocalBundle(weights, options_.ba, options_.ba_max_constant_observers,
-                        &reconstruction_);
+  const SceneBundleResult adjusted = AdjustLocalBundle(
+      weights, options_.local_ba, options_.ba_max_constant_observers, &reconstruction_);
   result->ba_free_images = adjusted.summary.num_free_images;
   result->ba_images = adjusted.summary.num_images;
   result->ba_points = adjusted.summary.num_points;
   result->ba_iterations = adjusted.summary.num_iterations;
   reconstruction_.FilterPoints3D(adjusted.points, options_.filter_max_error_px,
                                  options_.filter_min_tri_angle_deg);
-  result->times.ba += stopwatch.ElapsedMs();
 }
 
-std::vector<int> Engine::RegisteredNeighbours(image_t image_id, int n) const {
+void Engine::RetryPending(std::vector<ImageResult>* results) {
+  // Images registered already (the new one, or an initial pair) leave first.
+  for (const image_t image_id : pending_.Images()) {
+    if (!reconstruction_.image(image_id).IsRegistered()) continue;
+    pending_.Remove(image_id);
+    if (image_id != (*results)[0].image_id) results->push_back(ResultFor(image_id));
+  }
+  if (!initialized_) return;
+  const auto count = [this](image_t id) { return NumRegisteredNeighbours(id); };
+  for (image_t image_id; (image_id = pending_.NextDue(count)) != kInvalidImageId;) {
+    pending_.MarkTried(image_id, count(image_id));
+    ImageResult attempt = ResultFor(image_id);
+    const bool registered = RegisterAndExtend(image_id, &attempt);
+    if (!registered) {
+      // A failed try is work done for the new image's call.
+      attempt.times.UpdateTotal();
+      (*results)[0].times.pending += attempt.times.total;
+      continue;
+    }
+    pending_.Remove(image_id);
+    if (image_id == (*results)[0].image_id) {
+      ImageResult& own = (*results)[0];
+      AddTimes(attempt.times, &own.times);
+      attempt.times = own.times;
+      attempt.num_features = own.num_features;
+      attempt.num_candidates = own.num_candidates;
+      attempt.num_verified_pairs = own.num_verified_pairs;
+      attempt.num_lsm_rejected = own.num_lsm_rejected;
+      own = std::move(attempt);
+    } else {
+      results->push_back(std::move(attempt));
+    }
+  }
+}
+
+int Engine::NumRegisteredNeighbours(image_t image_id) const {
+  int count = 0;
+  for (const image_t other_id : matches_.Neighbours(image_id)) {
+    count += reconstruction_.image(other_id).IsRegistered();
+  }
+  return count;
+}
+
+std::vector<int> Engine::RetrievalNeighbours(image_t image_id, int n) const {
   std::vector<int> neighbours;
   // Pending images are interleaved in the ranking: ask for more.
-  for (const RetrievalCandidate& candidate :
-       retriever_.QueryInserted(int(image_id), 3 * n)) {
-    if (reconstruction_.image(image_t(candidate.image_id)).IsRegistered()) {
-      neighbours.push_back(candidate.image_id);
+  for (const RetrievalCandidate& candidate : retriever_.QueryInserted(image_id, 3 * n)) {
+    if (reconstruction_.image(candidate.image_id).IsRegistered()) {
+      neighbours.push_back(int(candidate.image_id));
       if (int(neighbours.size()) == n) break;
     }
   }
   return neighbours;
 }
 
-int Engine::NumRegisteredVerifiedNeighbours(image_t image_id) const {
-  int count = 0;
-  for (const int other_id : matches_.VerifiedNeighbours(int(image_id))) {
-    count += reconstruction_.image(image_t(other_id)).IsRegistered();
-  }
-  return count;
-}
-
-std::vector<ImageResult> Engine::RetryPending(ImageResult* new_image_result) {
-  std::vector<ImageResult> results;
-  // The new image reports into its own result; others get one each.
-  const auto result_for = [&](image_t image_id) -> ImageResult* {
-    if (new_image_result && new_image_result->image_id == image_id) {
-      return new_image_result;
-    }
-    ImageResult& result = results.emplace_back();
-    result.name = reconstruction_.image(image_id).name;
-    result.image_id = image_id;
-    return &result;
-  };
-  // Images registered already (the new one, or an initial pair) leave first.
-  for (auto it = pending_.begin(); it != pending_.end();) {
-    if (reconstruction_.image(*it).IsRegistered()) {
-      Finalize(result_for(*it));
-      it = pending_.erase(it);
-    } else {
-      ++it;
-    }
-  }
-  if (!initialized_) return results;
-  // Then every waiting image whose registered neighbourhood grew since its
-  // last try, again while any registers.
-  for (bool progress = true; progress;) {
-    progress = false;
-    for (auto it = pending_.begin(); it != pending_.end();) {
-      ImageState& state = states_.at(*it);
-      const int neighbours = NumRegisteredVerifiedNeighbours(*it);
-      if (neighbours == 0 || neighbours == state.registered_neighbours_at_last_try) {
-        ++it;
-        continue;
-      }
-      state.registered_neighbours_at_last_try = neighbours;
-      ImageResult scratch;
-      scratch.image_id = *it;
-      if (TryRegister(*it, &scratch)) {
-        ImageResult* result = result_for(*it);
-        if (result != new_image_result) {
-          *result = scratch;
-          result->name = reconstruction_.image(*it).name;
-        } else {
-          result->status = scratch.status;
-          result->num_correspondences = scratch.num_correspondences;
-          result->num_densified = scratch.num_densified;
-          result->num_pose_inliers = scratch.num_pose_inliers;
-          result->num_new_points = scratch.num_new_points;
-        }
-        Finalize(result);
-        it = pending_.erase(it);
-        progress = true;
-      } else {
-        ++it;
-      }
-    }
-  }
-  return results;
+ImageResult Engine::ResultFor(image_t image_id) const {
+  ImageResult result;
+  result.image_id = image_id;
+  result.name = reconstruction_.image(image_id).name;
+  return result;
 }
 
 std::vector<ImageResult> Engine::Finish() {
-  for (const image_t id : pending_) states_.at(id).registered_neighbours_at_last_try = -1;
-  std::vector<ImageResult> results = RetryPending(nullptr);
+  pending_.ForgetTries();
+  std::vector<ImageResult> results(1);  // a placeholder for "the new image"
+  RetryPending(&results);
+  results.erase(results.begin());
+  for (ImageResult& result : results) Finalize(&result);
   if (options_.final_global_ba && reconstruction_.NumRegisteredImages() >= 2) {
     AdjustGlobalBundle(options_.global_ba, &reconstruction_);
     reconstruction_.FilterAllPoints3D(options_.filter_max_error_px,
@@ -758,11 +391,12 @@ std::vector<ImageResult> Engine::Finish() {
 
 std::vector<std::string> Engine::PendingImageNames() const {
   std::vector<std::string> names;
-  for (const image_t id : pending_) names.push_back(reconstruction_.image(id).name);
+  for (const image_t id : pending_.Images()) names.push_back(reconstruction_.image(id).name);
   return names;
 }
 
 void Engine::Finalize(ImageResult* result) const {
+  result->times.UpdateTotal();
   result->model_images = int(reconstruction_.NumRegisteredImages());
   result->model_points = int(reconstruction_.NumPoints3D());
   if (result->image_id == kInvalidImageId) return;

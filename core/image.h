@@ -6,7 +6,7 @@
 
 #include <Eigen/Core>
 
-#include "core/types.h"
+#include "geometry/types.h"
 #include "geometry/rigid3d.h"
 
 namespace flysfm {

@@ -6,7 +6,7 @@
 
 #include <Eigen/Core>
 
-#include "core/types.h"
+#include "geometry/types.h"
 
 namespace flysfm {
 

@@ -9,7 +9,7 @@
 
 #include "core/image.h"
 #include "core/point3d.h"
-#include "core/types.h"
+#include "geometry/types.h"
 #include "geometry/camera.h"
 #include "geometry/sim3d.h"
 

@@ -412,6 +412,23 @@ bool AbsolutePoseOptions::Check() const {
   return AbsolutePoseOptionsProblem(*this).empty();
 }
 
+namespace {
+
+// Normalized image coordinates; a non-finite pixel stays non-finite, so that
+// it is never an inlier.
+std::vector<Eigen::Vector2d> NormalizedPixels(const Camera& camera,
+                                              const std::vector<Eigen::Vector2d>& pixels) {
+  std::vector<Eigen::Vector2d> normalized(pixels.size());
+  for (std::size_t i = 0; i < pixels.size(); ++i) {
+    normalized[i] = pixels[i].allFinite()
+                        ? camera.CamFromImg(pixels[i])
+                        : Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
+  }
+  return normalized;
+}
+
+}  // namespace
+
 AbsolutePoseResult EstimateAbsolutePose(const Camera& camera,
                                         const std::vector<Eigen::Vector2d>& pixels,
                                         const std::vector<Eigen::Vector3d>& points3D,
@@ -422,12 +439,7 @@ AbsolutePoseResult EstimateAbsolutePose(const Camera& camera,
       static_cast<int>(pixels.size()) < std::max(3, options.min_num_inliers)) {
     return result;
   }
-  std::vector<Eigen::Vector2d> normalized(pixels.size());
-  for (std::size_t i = 0; i < pixels.size(); ++i) {
-    normalized[i] = pixels[i].allFinite()
-                        ? camera.CamFromImg(pixels[i])
-                        : Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
-  }
+  const std::vector<Eigen::Vector2d> normalized = NormalizedPixels(camera, pixels);
   const AbsolutePoseEstimator estimator(normalized, points3D);
   RansacOptions ransac = options.ransac;
   ransac.max_error = camera.CamFromImgThreshold(options.max_error_px);
@@ -441,6 +453,27 @@ AbsolutePoseResult EstimateAbsolutePose(const Camera& camera,
   result.cam_from_world = AbsolutePoseEstimator::ToRigid(report.model);
   result.inlier_mask = report.inlier_mask;
   result.num_inliers = report.num_inliers;
+  return result;
+}
+
+AbsolutePoseResult ReestimateAbsolutePose(const Camera& camera,
+                                          const std::vector<Eigen::Vector2d>& pixels,
+                                          const std::vector<Eigen::Vector3d>& points3D,
+                                          const Rigid3d& first,
+                                          const AbsolutePoseOptions& options) {
+  AbsolutePoseResult result = EstimateAbsolutePose(camera, pixels, points3D, options);
+  if (result.success || pixels.size() != points3D.size()) return result;
+  const std::vector<Eigen::Vector2d> normalized = NormalizedPixels(camera, pixels);
+  const AbsolutePoseEstimator estimator(normalized, points3D);
+  const Matrix3x4d model = first.ToMatrix();
+  const double max_error = camera.CamFromImgThreshold(options.max_error_px);
+  result.success = true;
+  result.cam_from_world = first;
+  result.inlier_mask.assign(pixels.size(), 0);
+  for (int i = 0; i < estimator.NumData(); ++i) {
+    result.inlier_mask[i] = estimator.SquaredError(model, i) <= max_error * max_error;
+    result.num_inliers += result.inlier_mask[i];
+  }
   return result;
 }
 

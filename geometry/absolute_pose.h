@@ -77,4 +77,15 @@ AbsolutePoseResult EstimateAbsolutePose(const Camera& camera,
                                         const std::vector<Eigen::Vector3d>& points3D,
                                         const AbsolutePoseOptions& options);
 
+// The pose again from a longer list of correspondences whose first ones gave
+// `first` (LSM densification appends some): RANSAC as EstimateAbsolutePose;
+// where that fails, `first` is kept with its inliers over the whole list, by
+// the same threshold. Either way the result has one inlier flag per
+// correspondence, and succeeds.
+AbsolutePoseResult ReestimateAbsolutePose(const Camera& camera,
+                                          const std::vector<Eigen::Vector2d>& pixels,
+                                          const std::vector<Eigen::Vector3d>& points3D,
+                                          const Rigid3d& first,
+                                          const AbsolutePoseOptions& options);
+
 }  // namespace flysfm

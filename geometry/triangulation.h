@@ -57,8 +57,15 @@ struct TriangulationOptions {
   int min_num_inliers = 2;
   // Gauss-Newton refinement of the point on its inliers' pixel errors.
   bool refine = true;
-  // ransac.max_error is taken from max_error_px.
-  RansacOptions ransac;
+  // ransac.max_error is taken from max_error_px. A track has a few to a few
+  // tens of observations, so a few hundred pair samples cover it; without a
+  // bound, a point whose rays are all nearly parallel (adjacent video
+  // frames) would draw the RANSAC maximum.
+  RansacOptions ransac = [] {
+    RansacOptions options;
+    options.max_iterations = 200;
+    return options;
+  }();
 
   // True when every option is in its documented range; the functions taking
   // these options throw std::invalid_argument naming the bad one otherwise.

@@ -11,22 +11,6 @@
 namespace flysfm {
 namespace {
 
-// The stages of StageTimes, by name, in pipeline order.
-const std::vector<std::pair<const char*, double StageTimes::*>>& Stages() {
-  static const std::vector<std::pair<const char*, double StageTimes::*>> stages = {
-      {"decode", &StageTimes::decode},
-      {"features", &StageTimes::features},
-      {"retrieval", &StageTimes::retrieval},
-      {"matching", &StageTimes::matching},
-      {"verification", &StageTimes::verification},
-      {"lsm", &StageTimes::lsm},
-      {"registration", &StageTimes::registration},
-      {"triangulation", &StageTimes::triangulation},
-      {"ba", &StageTimes::ba},
-      {"total", &StageTimes::total}};
-  return stages;
-}
-
 double Percentile(std::vector<double> values, double fraction) {
   if (values.empty()) return 0;
   std::sort(values.begin(), values.end());
@@ -50,6 +34,8 @@ nlohmann::json ToJson(const ImageResult& result) {
       {"densified", result.num_densified},
       {"pose_inliers", result.num_pose_inliers},
       {"new_points", result.num_new_points},
+      {"merged_points", result.num_merged_points},
+      {"completed", result.num_completed},
       {"observations", result.num_observations},
       {"ba", {{"free_images", result.ba_free_images},
               {"images", result.ba_images},
@@ -68,14 +54,17 @@ nlohmann::json ToJson(const ImageResult& result) {
         {"tz", pose.translation.z()}};
   }
   nlohmann::json times;
-  for (const auto& [name, member] : Stages()) times[name] = result.times.*member;
+  for (const auto& [name, member] : StageTimes::Stages()) times[name] = result.times.*member;
+  times["total"] = result.times.total;
   json["ms"] = times;
   return json;
 }
 
 nlohmann::json StageTimeStatistics(const std::vector<ImageResult>& results) {
   nlohmann::json json;
-  for (const auto& [name, member] : Stages()) {
+  std::vector<StageTimes::Stage> stages = StageTimes::Stages();
+  stages.emplace_back("total", &StageTimes::total);
+  for (const auto& [name, member] : stages) {
     std::vector<double> values;
     for (const ImageResult& result : results) {
       if (result.status != ImageStatus::kRejected) values.push_back(result.times.*member);

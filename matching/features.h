@@ -46,10 +46,11 @@ struct FeatureSet {
 };
 
 struct SiftOptions {
-  // Strongest features kept (by DoG response). 2 000 fills a 640x480 frame
-  // (OpenCV finds ~1 900 there) and keeps matching and memory bounded on
-  // 6 MP photos.
-  int max_num_features = 2000;
+  // Strongest features kept (by DoG response). Matching grows with the
+  // square of the count and every later stage with the count: 1 500 kept
+  // fr1_xyz's ATE of 2 000 (1.09 cm on 120 frames) at a little over half the
+  // matching time, and bounds matching and memory on photos.
+  int max_num_features = 1500;
   // Longest image side used for extraction; larger images are downscaled
   // (area interpolation) and keypoints mapped back to full resolution. 1 600
   // px keeps a 6 MP photo near 0.3 s instead of over 1 s, with enough

@@ -7,19 +7,28 @@
 namespace flysfm {
 namespace {
 
-void Swap(std::vector<FeatureMatch>* matches) {
-  for (FeatureMatch& m : *matches) std::swap(m.idx1, m.idx2);
+std::vector<FeatureMatch> Oriented(std::vector<FeatureMatch> matches, bool swap) {
+  if (swap) {
+    for (FeatureMatch& m : matches) std::swap(m.idx1, m.idx2);
+  }
+  return matches;
 }
 
-std::vector<FeatureMatch> Oriented(std::vector<FeatureMatch> matches, bool swap) {
-  if (swap) Swap(&matches);
-  return matches;
+void InsertSorted(image_t id, std::vector<image_t>* ids) {
+  const auto it = std::lower_bound(ids->begin(), ids->end(), id);
+  if (it == ids->end() || *it != id) ids->insert(it, id);
+}
+
+void EraseSorted(image_t id, std::vector<image_t>* ids) {
+  const auto it = std::lower_bound(ids->begin(), ids->end(), id);
+  if (it != ids->end() && *it == id) ids->erase(it);
 }
 
 }  // namespace
 
-std::uint64_t ImagePairKey(int image_id1, int image_id2) {
-  if (image_id1 < 0 || image_id2 < 0 || image_id1 == image_id2) {
+std::uint64_t ImagePairKey(image_t image_id1, image_t image_id2) {
+  if (image_id1 == kInvalidImageId || image_id2 == kInvalidImageId ||
+      image_id1 == image_id2) {
     throw std::invalid_argument("invalid image pair (" + std::to_string(image_id1) +
                                 ", " + std::to_string(image_id2) + ")");
   }
@@ -28,77 +37,58 @@ std::uint64_t ImagePairKey(int image_id1, int image_id2) {
   return (low << 32) | high;
 }
 
-std::pair<int, int> ImagePairFromKey(std::uint64_t key) {
-  return {int(key >> 32), int(key & 0xFFFFFFFFu)};
+std::pair<image_t, image_t> ImagePairFromKey(std::uint64_t key) {
+  return {image_t(key >> 32), image_t(key & 0xFFFFFFFFu)};
 }
 
-MatchStore::PairMatches& MatchStore::Entry(int image_id1, int image_id2) {
-  return pairs_[ImagePairKey(image_id1, image_id2)];
+void MatchStore::SetMatches(image_t image_id1, image_t image_id2,
+                            std::vector<FeatureMatch> matches) {
+  const std::uint64_t key = ImagePairKey(image_id1, image_id2);
+  if (matches.empty()) {
+    if (pairs_.erase(key) > 0) {
+      EraseSorted(image_id2, &neighbours_[image_id1]);
+      EraseSorted(image_id1, &neighbours_[image_id2]);
+    }
+    return;
+  }
+  pairs_[key] = Oriented(std::move(matches), image_id1 > image_id2);
+  InsertSorted(image_id2, &neighbours_[image_id1]);
+  InsertSorted(image_id1, &neighbours_[image_id2]);
 }
 
-const MatchStore::PairMatches* MatchStore::Find(int image_id1, int image_id2) const {
+std::vector<FeatureMatch> MatchStore::Matches(image_t image_id1, image_t image_id2) const {
   const auto it = pairs_.find(ImagePairKey(image_id1, image_id2));
-  return it == pairs_.end() ? nullptr : &it->second;
+  if (it == pairs_.end()) return {};
+  return Oriented(it->second, image_id1 > image_id2);
 }
 
-void MatchStore::SetRawMatches(int image_id1, int image_id2,
-                               std::vector<FeatureMatch> matches) {
-  Entry(image_id1, image_id2).raw = Oriented(std::move(matches), image_id1 > image_id2);
+std::size_t MatchStore::NumMatches(image_t image_id1, image_t image_id2) const {
+  const auto it = pairs_.find(ImagePairKey(image_id1, image_id2));
+  return it == pairs_.end() ? 0 : it->second.size();
 }
 
-void MatchStore::SetVerifiedMatches(int image_id1, int image_id2,
-                                    std::vector<FeatureMatch> matches) {
-  PairMatches& entry = Entry(image_id1, image_id2);
-  entry.verified = Oriented(std::move(matches), image_id1 > image_id2);
-  entry.has_verified = true;
+const std::vector<image_t>& MatchStore::Neighbours(image_t image_id) const {
+  static const std::vector<image_t> kNone;
+  const auto it = neighbours_.find(image_id);
+  return it == neighbours_.end() ? kNone : it->second;
 }
 
-bool MatchStore::HasPair(int image_id1, int image_id2) const {
-  return Find(image_id1, image_id2) != nullptr;
-}
-
-bool MatchStore::HasVerified(int image_id1, int image_id2) const {
-  const PairMatches* entry = Find(image_id1, image_id2);
-  return entry != nullptr && entry->has_verified;
-}
-
-std::vector<FeatureMatch> MatchStore::RawMatches(int image_id1, int image_id2) const {
-  const PairMatches* entry = Find(image_id1, image_id2);
-  if (entry == nullptr) return {};
-  return Oriented(entry->raw, image_id1 > image_id2);
-}
-
-std::vector<FeatureMatch> MatchStore::VerifiedMatches(int image_id1, int image_id2) const {
-  const PairMatches* entry = Find(image_id1, image_id2);
-  if (entry == nullptr) return {};
-  return Oriented(entry->verified, image_id1 > image_id2);
-}
-
-std::vector<std::pair<int, int>> MatchStore::Pairs() const {
-  std::vector<std::pair<int, int>> result;
+std::vector<std::pair<image_t, image_t>> MatchStore::Pairs() const {
+  std::vector<std::pair<image_t, image_t>> result;
   result.reserve(pairs_.size());
-  for (const auto& [key, entry] : pairs_) result.push_back(ImagePairFromKey(key));
+  for (const auto& [key, matches] : pairs_) result.push_back(ImagePairFromKey(key));
   std::sort(result.begin(), result.end());
   return result;
 }
 
-std::vector<int> MatchStore::VerifiedNeighbours(int image_id, int min_verified) const {
-  std::vector<int> result;
-  for (const auto& [key, entry] : pairs_) {
-    if (!entry.has_verified || int(entry.verified.size()) < min_verified) continue;
-    const auto [a, b] = ImagePairFromKey(key);
-    if (a == image_id) result.push_back(b);
-    if (b == image_id) result.push_back(a);
+void MatchStore::RemoveImage(image_t image_id) {
+  const auto it = neighbours_.find(image_id);
+  if (it == neighbours_.end()) return;
+  for (const image_t other : it->second) {
+    pairs_.erase(ImagePairKey(image_id, other));
+    EraseSorted(image_id, &neighbours_[other]);
   }
-  std::sort(result.begin(), result.end());
-  return result;
-}
-
-void MatchStore::RemoveImage(int image_id) {
-  for (auto it = pairs_.begin(); it != pairs_.end();) {
-    const auto [a, b] = ImagePairFromKey(it->first);
-    it = (a == image_id || b == image_id) ? pairs_.erase(it) : std::next(it);
-  }
+  neighbours_.erase(it);
 }
 
 }  // namespace flysfm

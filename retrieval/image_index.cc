@@ -13,7 +13,7 @@ ImageIndex::ImageIndex(int dim) : dim_(dim) {
   if (dim < 1) throw std::invalid_argument("image index dimension must be positive");
 }
 
-void ImageIndex::Insert(int image_id, const Eigen::VectorXf& descriptor) {
+void ImageIndex::Insert(image_t image_id, const Eigen::VectorXf& descriptor) {
   if (descriptor.size() != dim_) {
     throw std::invalid_argument("descriptor of length " + std::to_string(descriptor.size()) +
                                 " inserted into an index of dimension " + std::to_string(dim_));
@@ -26,7 +26,7 @@ void ImageIndex::Insert(int image_id, const Eigen::VectorXf& descriptor) {
   OnInsert(Size() - 1);
 }
 
-Eigen::VectorXf ImageIndex::DescriptorOf(int image_id) const {
+Eigen::VectorXf ImageIndex::DescriptorOf(image_t image_id) const {
   const auto it = slots_.find(image_id);
   if (it == slots_.end()) {
     throw std::invalid_argument("image " + std::to_string(image_id) + " is not in the index");

@@ -11,12 +11,13 @@
 
 #include <Eigen/Core>
 
+#include "geometry/types.h"
 #include "retrieval/vocabulary_tree.h"
 
 namespace flysfm {
 
 struct RetrievalCandidate {
-  int image_id = -1;
+  image_t image_id = kInvalidImageId;
   // Euclidean distance of the global descriptors: smaller is more similar.
   float distance = 0.f;
 };
@@ -28,7 +29,7 @@ class ImageIndex {
 
   // Adds an image. Its id must be new and the descriptor of length Dim()
   // (std::invalid_argument otherwise).
-  void Insert(int image_id, const Eigen::VectorXf& descriptor);
+  void Insert(image_t image_id, const Eigen::VectorXf& descriptor);
 
   // Up to `n` inserted images, most similar first (ties by id). Fewer only
   // when fewer are inserted.
@@ -37,11 +38,11 @@ class ImageIndex {
 
   int Dim() const { return dim_; }
   int Size() const { return int(ids_.size()); }
-  bool Contains(int image_id) const { return slots_.count(image_id) > 0; }
+  bool Contains(image_t image_id) const { return slots_.count(image_id) > 0; }
   // The descriptor an inserted image was given (std::invalid_argument for an
   // unknown id).
-  Eigen::VectorXf DescriptorOf(int image_id) const;
-  const std::vector<int>& ImageIds() const { return ids_; }
+  Eigen::VectorXf DescriptorOf(image_t image_id) const;
+  const std::vector<image_t>& ImageIds() const { return ids_; }
 
  protected:
   virtual void OnInsert(int slot) = 0;
@@ -52,9 +53,9 @@ class ImageIndex {
   void CheckQuery(const Eigen::VectorXf& descriptor, int n) const;
 
   int dim_;
-  std::vector<int> ids_;  // per slot
+  std::vector<image_t> ids_;  // per slot
   std::vector<float> data_;  // slot-major descriptors
-  std::unordered_map<int, int> slots_;  // image id -> slot
+  std::unordered_map<image_t, int> slots_;  // image id -> slot
 };
 
 class ExhaustiveIndex : public ImageIndex {

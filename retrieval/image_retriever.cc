@@ -61,7 +61,7 @@ std::vector<RetrievalCandidate> ImageRetriever::Query(const RetrievalDescriptor&
   return index_->Query(descriptor.vector, n);
 }
 
-std::vector<RetrievalCandidate> ImageRetriever::QueryInserted(int image_id, int n) const {
+std::vector<RetrievalCandidate> ImageRetriever::QueryInserted(image_t image_id, int n) const {
   if (!index_ || !index_->Contains(image_id)) {
     throw std::invalid_argument("image " + std::to_string(image_id) + " was not inserted");
   }
@@ -73,7 +73,7 @@ std::vector<RetrievalCandidate> ImageRetriever::QueryInserted(int image_id, int 
   return result;
 }
 
-void ImageRetriever::Insert(int image_id, const cv::Mat& image, const FeatureSet& features,
+void ImageRetriever::Insert(image_t image_id, const cv::Mat& image, const FeatureSet& features,
                             const RetrievalDescriptor& descriptor) {
   if (index_ && index_->Contains(image_id)) {
     throw std::invalid_argument("image " + std::to_string(image_id) + " already inserted");
@@ -92,7 +92,7 @@ void ImageRetriever::Insert(int image_id, const cv::Mat& image, const FeatureSet
   index_->Insert(image_id, vector);
   if (bootstrapped_ && options_.use_tree && index_->Size() >= next_tree_at_) {
     std::vector<Eigen::VectorXf> descriptors;
-    for (int id : index_->ImageIds()) descriptors.push_back(index_->DescriptorOf(id));
+    for (const image_t id : index_->ImageIds()) descriptors.push_back(index_->DescriptorOf(id));
     RebuildIndex(index_->ImageIds(), descriptors);
   }
 }
@@ -124,7 +124,7 @@ void ImageRetriever::Retrain() {
   if (frozen_) retained_ids_.clear();
 }
 
-void ImageRetriever::RebuildIndex(std::vector<int> ids,
+void ImageRetriever::RebuildIndex(std::vector<image_t> ids,
                                   const std::vector<Eigen::VectorXf>& descriptors) {
   FLYSFM_CHECK(ids.size() == descriptors.size() && !descriptors.empty());
   const int n = int(ids.size());

@@ -88,12 +88,12 @@ class ImageRetriever {
   // Adds an image (new id). `descriptor` is Describe's result for it; a stale
   // one is recomputed from `features`. May retrain (bootstrapped mode), after
   // which earlier descriptors are stale.
-  void Insert(int image_id, const cv::Mat& image, const FeatureSet& features,
+  void Insert(image_t image_id, const cv::Mat& image, const FeatureSet& features,
               const RetrievalDescriptor& descriptor);
 
   // The `n` inserted images most similar to inserted image `image_id`,
   // itself excluded (e.g. the ripples of the local bundle adjustment).
-  std::vector<RetrievalCandidate> QueryInserted(int image_id, int n) const;
+  std::vector<RetrievalCandidate> QueryInserted(image_t image_id, int n) const;
 
   int NumImages() const { return index_ ? index_->Size() : 0; }
   int generation() const { return generation_; }
@@ -104,7 +104,7 @@ class ImageRetriever {
 
  private:
   void Retrain();
-  void RebuildIndex(std::vector<int> ids, const std::vector<Eigen::VectorXf>& descriptors);
+  void RebuildIndex(std::vector<image_t> ids, const std::vector<Eigen::VectorXf>& descriptors);
 
   ImageRetrieverOptions options_;
   bool bootstrapped_ = false;
@@ -114,7 +114,7 @@ class ImageRetriever {
   int generation_ = 0;
 
   // Bootstrapped mode: features kept until the model is frozen, with ids.
-  std::vector<int> retained_ids_;
+  std::vector<image_t> retained_ids_;
   std::vector<FeatureSet> retained_features_;
   bool frozen_ = false;
   int next_training_at_ = 1;

@@ -47,8 +47,8 @@ void AddEngineFlags(CLI::App* command, EngineFlags* flags) {
 
 Engine EngineFlags::MakeEngine() const {
   Engine::Options options;
-  options.lsm_refinement = !no_lsm_refinement;
-  options.lsm_densification = !no_lsm_densification;
+  options.verification.lsm_refinement = !no_lsm_refinement;
+  options.registration.lsm_densification = !no_lsm_densification;
   options.hierarchical_weights = !no_hierarchical_weights;
   options.retrieval.use_tree = !exhaustive_retrieval;
   options.final_global_ba = !no_global_ba;

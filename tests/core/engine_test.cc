@@ -1,5 +1,10 @@
 #include "core/engine.h"
 
+#include <algorithm>
+#include <chrono>
+#include <functional>
+#include <random>
+
 #include <catch2/catch.hpp>
 
 #include "io/evaluation.h"
@@ -19,44 +24,204 @@ double CenterRmse(const Reconstruction& reconstruction, const SyntheticCapture& 
   return errors->rmse;
 }
 
-SyntheticCapture RenderCapture(int num_views, std::uint32_t seed) {
-  SyntheticCaptureOptions options;
-  options.num_views = num_views;
-  options.seed = seed;
-  return MakeSyntheticCapture(options);
+const SyntheticCapture& Capture() {
+  static const SyntheticCapture capture = [] {
+    SyntheticCaptureOptions options;
+    options.num_views = 12;
+    options.seed = 3;
+    return MakeSyntheticCapture(options);
+  }();
+  return capture;
+}
+
+// Rendered pixels are exact up to interpolation: centres within 0.5 % of
+// the walk.
+const double kCenterTolerance = 0.005 * SyntheticCaptureOptions().path_length;
+
+// What a run reported, call by call.
+struct Run {
+  std::vector<std::vector<ImageResult>> calls;
+  std::vector<ImageResult> finish;
+
+  std::vector<ImageResult> All() const {
+    std::vector<ImageResult> all;
+    for (const auto& call : calls) all.insert(all.end(), call.begin(), call.end());
+    all.insert(all.end(), finish.begin(), finish.end());
+    return all;
+  }
+};
+
+Run Feed(Engine* engine, const std::vector<Frame>& frames) {
+  Run run;
+  for (const Frame& frame : frames) {
+    run.calls.push_back(engine->AddImage(frame));
+    REQUIRE_FALSE(run.calls.back().empty());
+    CHECK(run.calls.back().front().name == frame.name);
+  }
+  run.finish = engine->Finish();
+  return run;
+}
+
+// Every image registered, and reported registered exactly once.
+void CheckAllRegisteredOnce(const Engine& engine, const Run& run, std::size_t num_frames) {
+  CHECK(engine.reconstruction().NumRegisteredImages() == num_frames);
+  CHECK(engine.PendingImageNames().empty());
+  std::map<std::string, int> reported;
+  for (const ImageResult& result : run.All()) {
+    reported[result.name] += result.status == ImageStatus::kRegistered;
+  }
+  CHECK(reported.size() == num_frames);
+  for (const auto& [name, count] : reported) {
+    INFO(name);
+    CHECK(count == 1);
+  }
 }
 
 TEST_CASE("The engine registers a rendered capture with accurate poses") {
-  const SyntheticCapture capture = RenderCapture(12, 3);
-  Engine engine(Engine::Options(), capture.camera);
-  int reported_registered = 0;
-  for (const Frame& frame : capture.frames) {
-    const std::vector<ImageResult> results = engine.AddImage(frame);
-    REQUIRE_FALSE(results.empty());
-    CHECK(results.front().name == frame.name);
-    CHECK(results.front().status != ImageStatus::kRejected);
+  Engine engine(Engine::Options(), Capture().camera);
+  const Run run = Feed(&engine, Capture().frames);
+  CheckAllRegisteredOnce(engine, run, Capture().frames.size());
+  CHECK(engine.reconstruction().MeanReprojectionError() < 0.5);
+  CHECK(CenterRmse(engine.reconstruction(), Capture()) < kCenterTolerance);
+}
+
+TEST_CASE("Image results: stage times add up, registrations carry their work, counts grow") {
+  Engine engine(Engine::Options(), Capture().camera);
+  int model_images = 0;
+  for (const Frame& frame : Capture().frames) {
+    PreparedFrame prepared = Engine::Prepare(frame, engine.options());
+    const double prepare_ms = prepared.decode_ms + prepared.features_ms;
+    const auto start = std::chrono::steady_clock::now();
+    const std::vector<ImageResult> results = engine.AddImage(std::move(prepared));
+    const double call_ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+            .count();
+    double sum_ms = 0;
     for (const ImageResult& result : results) {
-      reported_registered += result.status == ImageStatus::kRegistered;
+      INFO(result.name);
+      double stages = 0;
+      for (const auto& [name, member] : StageTimes::Stages()) {
+        CHECK(result.times.*member >= 0);
+        stages += result.times.*member;
+      }
+      CHECK(result.times.total == Approx(stages));
+      sum_ms += result.times.total;
+      // Every result of a call describes the model as the call left it.
+      CHECK(result.model_images == int(engine.reconstruction().NumRegisteredImages()));
+      CHECK(result.model_points == int(engine.reconstruction().NumPoints3D()));
+      if (result.status == ImageStatus::kRegistered) {
+        // The work that registered it, wherever it happened (the first
+        // call, a retry, the initial pair).
+        CHECK(result.cam_from_world.has_value());
+        CHECK(result.num_observations > 0);
+      }
     }
+    // Each stage is timed once: the call's results account for its work,
+    // all but the bookkeeping between stages (generously bounded, since a
+    // loaded machine may preempt anywhere).
+    CHECK(sum_ms - prepare_ms <= call_ms + 0.5);
+    CHECK(sum_ms - prepare_ms >= 0.8 * call_ms - 5);
+    const ImageResult& own = results.front();
+    if (own.status == ImageStatus::kRegistered && engine.initialized() && model_images > 0) {
+      CHECK(own.times.registration > 0);
+      CHECK(own.times.ba > 0);
+      CHECK(own.ba_free_images > 0);
+    }
+    CHECK(own.model_images >= model_images);
+    model_images = own.model_images;
   }
-  for (const ImageResult& result : engine.Finish()) {
-    reported_registered += result.status == ImageStatus::kRegistered;
+  CHECK(model_images == int(Capture().frames.size()));
+}
+
+TEST_CASE("A shuffled capture waits in the pending pool and registers in full, deterministically") {
+  std::vector<Frame> frames = Capture().frames;
+  std::mt19937 rng(11);
+  std::shuffle(frames.begin(), frames.end(), rng);
+  const auto run_once = [&](Run* run) {
+    auto engine = std::make_unique<Engine>(Engine::Options(), Capture().camera);
+    *run = Feed(engine.get(), frames);
+    return engine;
+  };
+  Run run;
+  const std::unique_ptr<Engine> engine = run_once(&run);
+  CheckAllRegisteredOnce(*engine, run, frames.size());
+  CHECK(CenterRmse(engine->reconstruction(), Capture()) < kCenterTolerance);
+  // Some image waited: it registered in a later call than its own.
+  int registered_later = 0;
+  for (const auto& call : run.calls) {
+    registered_later += int(call.size()) - 1;
   }
+  CHECK(registered_later + int(run.finish.size()) > 0);
+  CHECK(std::any_of(run.calls.begin(), run.calls.end(), [](const auto& call) {
+    return call.front().status == ImageStatus::kPending && !call.front().reason.empty();
+  }));
+
+  Run again;
+  const std::unique_ptr<Engine> twin = run_once(&again);
+  for (const image_t id : engine->reconstruction().RegisteredImageIds()) {
+    const Rigid3d& a = *engine->reconstruction().image(id).cam_from_world;
+    const Rigid3d& b = *twin->reconstruction().image(id).cam_from_world;
+    CHECK(a.rotation.coeffs() == b.rotation.coeffs());
+    CHECK(a.translation == b.translation);
+  }
+}
+
+TEST_CASE("Every ablation switch still registers the capture accurately") {
+  const std::vector<std::pair<const char*, std::function<void(Engine::Options*)>>> switches = {
+      {"no LSM refinement", [](Engine::Options* o) { o->verification.lsm_refinement = false; }},
+      {"no LSM densification",
+       [](Engine::Options* o) { o->registration.lsm_densification = false; }},
+      {"plain local BA", [](Engine::Options* o) { o->hierarchical_weights = false; }},
+      {"exhaustive retrieval", [](Engine::Options* o) { o->retrieval.use_tree = false; }},
+  };
+  for (const auto& [name, apply] : switches) {
+    INFO(name);
+    Engine::Options options;
+    apply(&options);
+    Engine engine(options, Capture().camera);
+    const Run run = Feed(&engine, Capture().frames);
+    CheckAllRegisteredOnce(engine, run, Capture().frames.size());
+    CHECK(CenterRmse(engine.reconstruction(), Capture()) < kCenterTolerance);
+  }
+}
+
+TEST_CASE("Without intrinsics the engine self-calibrates the focal length") {
+  Engine engine{Engine::Options()};
+  const Run run = Feed(&engine, Capture().frames);
+  CheckAllRegisteredOnce(engine, run, Capture().frames.size());
   const Reconstruction& model = engine.reconstruction();
-  // Every image registered, each reported once as registered.
-  CHECK(model.NumRegisteredImages() == capture.frames.size());
-  CHECK(reported_registered == int(capture.frames.size()));
-  CHECK(engine.PendingImageNames().empty());
-  // Rendered pixels are exact up to interpolation: sub-pixel reprojection.
-  CHECK(model.MeanReprojectionError() < 0.5);
-  // Centres within 0.5 % of the 3 m path (the demo criterion).
-  CHECK(CenterRmse(model, capture) < 0.005 * SyntheticCaptureOptions().path_length);
+  REQUIRE(model.cameras().size() == 1);
+  const Camera& camera = model.cameras().begin()->second;
+  // The guess starts 1.2 x 640 = 768 px against the true 500.
+  CHECK(camera.MeanFocalLength() == Approx(Capture().camera.MeanFocalLength()).epsilon(0.02));
+  CHECK(CenterRmse(model, Capture()) < 2 * kCenterTolerance);
+}
+
+TEST_CASE("A failed initial pair leaves the shared intrinsics as they were") {
+  Engine::Options options;
+  // Nothing survives the filter after the initial pair's BA, so every pair
+  // fails after its BA refined the (unknown) intrinsics.
+  options.filter_max_error_px = 1e-9;
+  Engine engine{options};
+  std::optional<Camera> first;
+  for (const Frame& frame : Capture().frames) {
+    const std::vector<ImageResult> results = engine.AddImage(frame);
+    REQUIRE(results.size() == 1);
+    CHECK(results.front().status == ImageStatus::kPending);
+    CHECK(results.front().reason == "no initial pair yet");
+    const Camera& camera = engine.reconstruction().cameras().begin()->second;
+    if (!first) first = camera;
+    CHECK(camera.params == first->params);
+  }
+  CHECK_FALSE(engine.initialized());
+  CHECK(first->MeanFocalLength() == Approx(1.2 * 640));
+  CHECK(engine.reconstruction().NumRegisteredImages() == 0);
+  CHECK(engine.reconstruction().NumPoints3D() == 0);
 }
 
 TEST_CASE("Unreadable images are counted rejections, and the run goes on") {
-  const SyntheticCapture capture = RenderCapture(8, 5);
-  Engine engine(Engine::Options(), capture.camera);
-  std::vector<Frame> frames = capture.frames;
+  Engine engine(Engine::Options(), Capture().camera);
+  std::vector<Frame> frames = Capture().frames;
   Frame truncated = frames[2];
   truncated.name = "truncated.png";
   truncated.bytes.resize(truncated.bytes.size() / 2);
@@ -75,7 +240,19 @@ TEST_CASE("Unreadable images are counted rejections, and the run goes on") {
   }
   engine.Finish();
   CHECK(engine.num_rejected() == 3);
-  CHECK(engine.reconstruction().NumRegisteredImages() == capture.frames.size());
+  CHECK(engine.reconstruction().NumRegisteredImages() == Capture().frames.size());
+}
+
+TEST_CASE("Invalid options are refused, naming the option") {
+  Engine::Options options;
+  options.max_verified_pairs = 0;
+  std::string problem;
+  CHECK_FALSE(options.Check(&problem));
+  CHECK(problem.find("max_verified_pairs") != std::string::npos);
+  CHECK_THROWS_WITH(Engine(options), Catch::Contains("max_verified_pairs"));
+  options = Engine::Options();
+  options.lsm_images.num_pyramid_levels = 1;
+  CHECK_THROWS_WITH(Engine(options), Catch::Contains("num_pyramid_levels"));
 }
 
 }  // namespace

@@ -180,5 +180,38 @@ TEST_CASE("EstimateAbsolutePose handles planar scenes and bad input") {
                   std::invalid_argument);
 }
 
+TEST_CASE("ReestimateAbsolutePose keeps the first pose, with a mask over every correspondence, "
+          "when RANSAC fails on the longer list") {
+  std::mt19937 rng(7);
+  const Camera camera = Camera::FromFocal(CameraModelId::kPinhole, 500, 640, 480);
+  const PoseInstance p = RandomInstance(rng, 40);
+  std::vector<Eigen::Vector2d> pixels;
+  for (const Eigen::Vector2d& x : p.points2D) pixels.push_back(camera.ImgFromCam(x.homogeneous()));
+  std::vector<Eigen::Vector3d> points = p.points3D;
+  // Densification appends 30 correspondences, every one wrong by 50 px.
+  for (int i = 0; i < 30; ++i) {
+    pixels.push_back(pixels[i] + Eigen::Vector2d(50, 0));
+    points.push_back(p.points3D[i]);
+  }
+  AbsolutePoseOptions options;
+  AbsolutePoseResult result =
+      ReestimateAbsolutePose(camera, pixels, points, p.cam_from_world, options);
+  REQUIRE(result.success);
+  REQUIRE(result.inlier_mask.size() == pixels.size());
+  CHECK(result.num_inliers == 40);
+  CHECK(PoseError(result.cam_from_world, p.cam_from_world) < 1e-6);
+
+  // More inliers demanded than the longer list has: RANSAC fails, the first
+  // pose stays, and its inliers are counted over all 70 correspondences.
+  options.min_num_inliers = 45;
+  const Rigid3d first(p.cam_from_world.rotation, p.cam_from_world.translation);
+  result = ReestimateAbsolutePose(camera, pixels, points, first, options);
+  REQUIRE(result.success);
+  REQUIRE(result.inlier_mask.size() == pixels.size());
+  CHECK(result.num_inliers == 40);
+  for (std::size_t i = 0; i < pixels.size(); ++i) CHECK(bool(result.inlier_mask[i]) == (i < 40));
+  CHECK(PoseError(result.cam_from_world, first) == 0);
+}
+
 }  // namespace
 }  // namespace flysfm

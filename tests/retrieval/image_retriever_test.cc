@@ -55,7 +55,7 @@ TEST_CASE("bootstrapped retrieval finds the views of the same place") {
   Feed(places, 10, 120, &retriever);
   // Each place has 11 other views; the top-5 must all be of the same place.
   int correct = 0, total = 0;
-  for (int i = 0; i < 120; ++i) {
+  for (image_t i = 0; i < 120; ++i) {
     const auto top = retriever.QueryInserted(i, 5);
     REQUIRE(top.size() == 5);
     for (const auto& c : top) {
@@ -93,7 +93,7 @@ TEST_CASE("trained mode uses the given model and never retrains") {
   Feed(places, 10, 60, &retriever);
   CHECK(retriever.num_model_trainings() == 0);
   CHECK(retriever.generation() == 0);
-  for (int i = 0; i < 60; ++i) {
+  for (image_t i = 0; i < 60; ++i) {
     for (const auto& c : retriever.QueryInserted(i, 5)) REQUIRE(c.image_id % 10 == i % 10);
   }
   // A tree of another dimension does not fit the extractor.

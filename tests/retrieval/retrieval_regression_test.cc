@@ -71,8 +71,8 @@ void InsertAll(const std::vector<FeatureSet>& features, ImageRetriever* retrieve
 // fr1_xyz is not a one-way sweep: the camera oscillates along x, y and z and
 // passes the same places several times within the 330 frames, while frames
 // 10 apart are ~10 cm apart. So the frames within +-10 of a frame are not
-// its 20 most similar ones, and no retrieval reaches the recall of
-// 0.9 on them: ranking by the ground-truth camera positions themselves (the
+// its 20 most similar ones, and no retrieval reaches a recall of 0.9 on
+// them: ranking by the ground-truth camera positions themselves (the
 // oracle below) gets a mean recall of ~0.55. The checks therefore compare
 // with that oracle and with the ground-truth motion (docs/retrieval.md).
 struct TumGroundTruth {

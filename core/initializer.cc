@@ -1,0 +1,82 @@
+#include "core/initializer.h"
+
+#include <algorithm>
+#include <stdexcept>
+
+#include "geometry/triangulation.h"
+
+namespace flysfm {
+
+bool Initializer::Options::Check() const {
+  return min_num_inliers >= 5 && min_tri_angle_deg >= 0 && min_num_points >= 2 &&
+         min_point_angle_deg >= 0 && max_error_px > 0;
+}
+
+Initializer::Initializer(const Options& options) : options_(options) {
+  if (!options_.Check()) throw std::invalid_argument("invalid initializer options");
+}
+
+void Initializer::AddPair(image_t image_id1, image_t image_id2,
+                          const TwoViewGeometry& geometry) {
+  if (!geometry.has_pose || geometry.config == TwoViewConfiguration::kPanoramic) return;
+  pairs_.push_back({image_id1, image_id2, geometry.cam2_from_cam1});
+}
+
+std::vector<InitialPair> Initializer::RankPairs(const Reconstruction& reconstruction,
+                                                const MatchStore& matches) const {
+  std::vector<InitialPair> ranked;
+  for (const Candidate& candidate : pairs_) {
+    const std::vector<FeatureMatch> verified =
+        matches.Matches(candidate.image_id1, candidate.image_id2);
+    if (int(verified.size()) < options_.min_num_inliers) continue;
+    const Image& image1 = reconstruction.image(candidate.image_id1);
+    const Image& image2 = reconstruction.image(candidate.image_id2);
+    const Camera& camera1 = reconstruction.camera(image1.camera_id);
+    const Camera& camera2 = reconstruction.camera(image2.camera_id);
+    const Rigid3d cam1_from_world;
+    const Matrix3x4d projection1 = cam1_from_world.ToMatrix();
+    const Matrix3x4d projection2 = candidate.cam2_from_cam1.ToMatrix();
+    const Eigen::Vector3d center1 = Eigen::Vector3d::Zero();
+    const Eigen::Vector3d center2 = ProjectionCenter(candidate.cam2_from_cam1);
+    std::vector<double> angles;
+    for (const FeatureMatch& match : verified) {
+      const Eigen::Vector2d& pixel1 = image1.points2D[match.idx1].xy;
+      const Eigen::Vector2d& pixel2 = image2.points2D[match.idx2].xy;
+      const std::optional<Eigen::Vector3d> point = TriangulatePoint(
+          projection1, projection2, camera1.CamFromImg(pixel1), camera2.CamFromImg(pixel2));
+      if (!point || !HasPositiveDepth(projection1, *point) ||
+          !HasPositiveDepth(projection2, *point)) {
+        continue;
+      }
+      const double angle = TriangulationAngleDeg(center1, center2, *point);
+      if (angle < options_.min_point_angle_deg ||
+          (camera1.ImgFromCam(*point) - pixel1).norm() > options_.max_error_px ||
+          (camera2.ImgFromCam(candidate.cam2_from_cam1 * *point) - pixel2).norm() >
+              options_.max_error_px) {
+        continue;
+      }
+      angles.push_back(angle);
+    }
+    if (int(angles.size()) < options_.min_num_points) continue;
+    std::nth_element(angles.begin(), angles.begin() + angles.size() / 2, angles.end());
+    const double median = angles[angles.size() / 2];
+    if (median < options_.min_tri_angle_deg) continue;
+    ranked.push_back({candidate.image_id1, candidate.image_id2, candidate.cam2_from_cam1,
+                      int(angles.size()), median});
+  }
+  std::stable_sort(ranked.begin(), ranked.end(), [](const auto& a, const auto& b) {
+    return a.num_points > b.num_points;
+  });
+  return ranked;
+}
+
+void Initializer::Discard(const InitialPair& pair) {
+  pairs_.erase(std::remove_if(pairs_.begin(), pairs_.end(),
+                              [&](const Candidate& candidate) {
+                                return candidate.image_id1 == pair.image_id1 &&
+                                       candidate.image_id2 == pair.image_id2;
+                              }),
+               pairs_.end());
+}
+
+}  // namespace flysfm

@@ -1,0 +1,76 @@
+#pragma once
+
+// The initial pair (the paper's Fig. 2, "initialisation"): while no model
+// exists, every verified pair with a relative pose is remembered; the best
+// is the one whose verified matches triangulate into the most points seen
+// under a good angle.
+
+#include <vector>
+
+#include "core/reconstruction.h"
+#include "geometry/two_view_geometry.h"
+#include "matching/match_store.h"
+
+namespace flysfm {
+
+struct InitialPair {
+  image_t image_id1 = kInvalidImageId;
+  image_t image_id2 = kInvalidImageId;
+  Rigid3d cam2_from_cam1;
+  // Verified matches whose two-view triangulation lies in front of both
+  // cameras, reprojects within the threshold and is seen under at least
+  // Options::min_point_angle_deg; and their median angle.
+  int num_points = 0;
+  double median_tri_angle_deg = 0;
+};
+
+class Initializer {
+ public:
+  struct Options {
+    // A pair needs this many verified matches to be considered.
+    int min_num_inliers = 100;
+    // ... and its well-triangulated points a median angle of at least this.
+    // The paper asks for 60-120 deg on wide-baseline photo sets; a hand-held
+    // video moves a few centimetres a second, so this is the smallest angle
+    // that still fixes depth well (COLMAP's incremental mapper uses 16 deg
+    // on photo sets).
+    double min_tri_angle_deg = 4.0;
+    // ... and at least this many such points.
+    int min_num_points = 50;
+    // A point counts when seen under this angle and reprojected within this
+    // many pixels in both images.
+    double min_point_angle_deg = 1.5;
+    double max_error_px = 4.0;
+
+    bool Check() const;
+  };
+
+  explicit Initializer(const Options& options);
+
+  // Remembers a verified pair's geometry (cam2 = image_id2) until the model
+  // exists.
+  void AddPair(image_t image_id1, image_t image_id2, const TwoViewGeometry& geometry);
+
+  // The remembered pairs that qualify, most well-triangulated points first.
+  // Keypoints and cameras are read as they are now (after LSM refinement);
+  // the matches are the pairs' verified ones in `matches`.
+  std::vector<InitialPair> RankPairs(const Reconstruction& reconstruction,
+                                     const MatchStore& matches) const;
+
+  // A pair that failed to start a model is not tried again.
+  void Discard(const InitialPair& pair);
+  // The model exists: nothing to remember any more.
+  void Clear() { pairs_.clear(); }
+
+ private:
+  struct Candidate {
+    image_t image_id1;
+    image_t image_id2;
+    Rigid3d cam2_from_cam1;
+  };
+
+  Options options_;
+  std::vector<Candidate> pairs_;
+};
+
+}  // namespace flysfm
