@@ -1,13 +1,12 @@
 #pragma once
 
 // The paper's hierarchical association tree (Sect. III-D, Fig. 7) and its
-// ripple weights (Eq. 4), and the local bundle problem they define.
+// ripple weights (Eq. 4). The caller builds the local bundle from its own
+// scene, its images weighted by WeightOf (the engine: core/scene_bundle.h).
 
 #include <functional>
 #include <unordered_map>
 #include <vector>
-
-#include "bundle/bundle_problem.h"
 
 namespace flysfm {
 
@@ -61,25 +60,5 @@ class HierarchicalAssociationTree {
   std::vector<std::vector<int>> ripples_;
   std::unordered_map<int, int> ripple_of_;
 };
-
-// A local bundle cut out of a larger problem, and where its parts came from.
-struct LocalBundle {
-  BundleProblem problem;
-  std::vector<int> source_image;  // local image index -> source image index
-  std::vector<int> source_point;  // local point index -> source point index
-};
-
-// The block of a tree whose ids index `source`'s images: the tree's images
-// with a finite weight are refined with their Eq. 4 weight; every point they
-// observe is included with all its observations, and the other images seeing
-// those points (the fixed ripple and images outside the tree) enter with
-// constant poses, so each point keeps all its constraints (as in COLMAP's
-// local BA). Points seen only by constant images are left out: they are
-// constant and their residuals cannot change the solution.
-LocalBundle ExtractLocalBundle(const BundleProblem& source,
-                               const HierarchicalAssociationTree& tree);
-
-// Copies the refined poses and points (and intrinsics) back into `source`.
-void WriteBack(const LocalBundle& local, BundleProblem* source);
 
 }  // namespace flysfm

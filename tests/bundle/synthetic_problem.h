@@ -1,7 +1,7 @@
 #pragma once
 
 // Bundle problems from the synthetic scenes of tests/testing, shared by the
-// bundle tests and bench/bench_bundle.cc.
+// bundle and scene-bundle tests and bench/bench_bundle.cc.
 
 #include <cmath>
 #include <random>

@@ -2,6 +2,7 @@
 
 #include <catch2/catch.hpp>
 
+#include "tests/testing/scene_reconstruction.h"
 #include "tests/testing/synthetic.h"
 
 namespace flysfm {
@@ -10,9 +11,7 @@ namespace {
 // A reconstruction holding a synthetic scene exactly: every image registered
 // at its true pose, every point with its full track.
 struct Fixture {
-  testing::SyntheticScene scene;
   Reconstruction reconstruction;
-  std::vector<image_t> image_ids;
   std::vector<point3D_t> point_ids;
 
   explicit Fixture(double noise_px = 0.0) {
@@ -20,24 +19,11 @@ struct Fixture {
     options.num_images = 6;
     options.num_points = 200;
     options.noise_px = noise_px;
-    scene = testing::MakeSyntheticScene(options);
-    const camera_t camera_id = reconstruction.AddCamera(scene.camera);
-    std::vector<std::vector<TrackElement>> tracks(scene.points.size());
-    for (int i = 0; i < options.num_images; ++i) {
-      std::vector<Eigen::Vector2d> keypoints;
-      for (const auto& obs : scene.ObservationsOf(i)) {
-        tracks[obs.point].push_back(
-            {image_t(i + 1), point2D_t(keypoints.size())});
-        keypoints.push_back(obs.pixel);
-      }
-      image_ids.push_back(
-          reconstruction.AddImage("img" + std::to_string(i), camera_id, keypoints));
-      reconstruction.RegisterImage(image_ids.back(), scene.cams_from_world[i]);
-    }
-    for (std::size_t p = 0; p < scene.points.size(); ++p) {
-      if (tracks[p].size() >= 2) {
-        point_ids.push_back(reconstruction.AddPoint3D(scene.points[p], tracks[p]));
-      }
+    testing::SceneReconstruction held =
+        testing::ReconstructionFromScene(testing::MakeSyntheticScene(options));
+    reconstruction = std::move(held.reconstruction);
+    for (const point3D_t id : held.point_ids) {
+      if (id != kInvalidPoint3DId) point_ids.push_back(id);
     }
   }
 };
@@ -142,7 +128,7 @@ TEST_CASE("A similarity transform keeps reprojection errors") {
 TEST_CASE("Deregistering an image removes its observations") {
   Fixture f;
   Reconstruction& r = f.reconstruction;
-  const image_t id = f.image_ids[2];
+  const image_t id = testing::SceneImageId(2);
   r.DeRegisterImage(id);
   CHECK_FALSE(r.image(id).IsRegistered());
   CHECK(r.image(id).num_points3D == 0);
