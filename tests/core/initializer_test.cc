@@ -2,11 +2,12 @@
 
 #include <catch2/catch.hpp>
 
-#include "tests/testing/scene_model.h"
+#include "tests/testing/scene_reconstruction.h"
 
 namespace flysfm {
 namespace {
 
+using testing::SceneImageId;
 using testing::SceneModel;
 
 TwoViewGeometry TrueGeometry(const testing::SyntheticScene& scene, int image1, int image2) {
@@ -26,24 +27,24 @@ TEST_CASE("The initial pair is the one with most well-triangulated points, not m
   // Pair (0, 3): 20 degrees, its true matches cut to 150 and padded with 300
   // wrong ones (matched keypoints of different points), 450 in all. Pair
   // (0, 5): 33 degrees, 300 true matches.
-  const image_t id0 = SceneModel::ImageId(0);
-  std::vector<FeatureMatch> matches03 = model.matches.Matches(id0, SceneModel::ImageId(3));
-  std::vector<FeatureMatch> matches05 = model.matches.Matches(id0, SceneModel::ImageId(5));
+  const image_t id0 = SceneImageId(0);
+  std::vector<FeatureMatch> matches03 = model.matches.Matches(id0, SceneImageId(3));
+  std::vector<FeatureMatch> matches05 = model.matches.Matches(id0, SceneImageId(5));
   REQUIRE(matches03.size() >= 450);
   REQUIRE(matches05.size() >= 300);
   matches05.resize(300);
   for (int i = 150; i < 450; ++i) matches03[i].idx2 = matches03[(i + 37) % 450].idx2;
   matches03.resize(450);
-  model.matches.SetMatches(id0, SceneModel::ImageId(3), matches03);
-  model.matches.SetMatches(id0, SceneModel::ImageId(5), matches05);
+  model.matches.SetMatches(id0, SceneImageId(3), matches03);
+  model.matches.SetMatches(id0, SceneImageId(5), matches05);
 
   Initializer initializer(Initializer::Options{});
-  initializer.AddPair(id0, SceneModel::ImageId(3), TrueGeometry(scene, 0, 3));
-  initializer.AddPair(id0, SceneModel::ImageId(5), TrueGeometry(scene, 0, 5));
+  initializer.AddPair(id0, SceneImageId(3), TrueGeometry(scene, 0, 3));
+  initializer.AddPair(id0, SceneImageId(5), TrueGeometry(scene, 0, 5));
   const std::vector<InitialPair> ranked =
       initializer.RankPairs(model.reconstruction, model.matches);
   REQUIRE(ranked.size() == 2);
-  CHECK(ranked[0].image_id2 == SceneModel::ImageId(5));
+  CHECK(ranked[0].image_id2 == SceneImageId(5));
   CHECK(ranked[0].num_points == 300);
   // The wrong matches of (0, 3) almost never meet within 4 px.
   CHECK(ranked[1].num_points >= 150);
@@ -57,7 +58,7 @@ TEST_CASE("The initial pair is the one with most well-triangulated points, not m
   Initializer::Options strict;
   strict.min_num_points = 301;
   Initializer demanding(strict);
-  demanding.AddPair(id0, SceneModel::ImageId(5), TrueGeometry(scene, 0, 5));
+  demanding.AddPair(id0, SceneImageId(5), TrueGeometry(scene, 0, 5));
   CHECK(demanding.RankPairs(model.reconstruction, model.matches).empty());
 }
 
@@ -69,8 +70,8 @@ TEST_CASE("A pair without a pose, or a pure rotation, cannot start a model") {
   no_pose.has_pose = false;
   TwoViewGeometry panoramic = TrueGeometry(scene, 0, 5);
   panoramic.config = TwoViewConfiguration::kPanoramic;
-  initializer.AddPair(SceneModel::ImageId(0), SceneModel::ImageId(4), no_pose);
-  initializer.AddPair(SceneModel::ImageId(0), SceneModel::ImageId(5), panoramic);
+  initializer.AddPair(SceneImageId(0), SceneImageId(4), no_pose);
+  initializer.AddPair(SceneImageId(0), SceneImageId(5), panoramic);
   CHECK(initializer.RankPairs(model.reconstruction, model.matches).empty());
   Initializer::Options bad;
   bad.min_num_points = 1;

@@ -4,11 +4,12 @@
 
 #include <catch2/catch.hpp>
 
-#include "tests/testing/scene_model.h"
+#include "tests/testing/scene_reconstruction.h"
 
 namespace flysfm {
 namespace {
 
+using testing::SceneImageId;
 using testing::SceneModel;
 
 // Images 0 and 1 registered at their true poses, observing every point they
@@ -22,7 +23,7 @@ SceneModel TwoViewModel(const testing::SyntheticScene& scene) {
     const point2D_t k1 = model.keypoint[1][p];
     if (k0 == kInvalidPoint2DIdx || k1 == kInvalidPoint2DIdx) continue;
     model.reconstruction.AddPoint3D(scene.points[p],
-                                    {{SceneModel::ImageId(0), k0}, {SceneModel::ImageId(1), k1}});
+                                    {{SceneImageId(0), k0}, {SceneImageId(1), k1}});
   }
   return model;
 }
@@ -30,7 +31,7 @@ SceneModel TwoViewModel(const testing::SyntheticScene& scene) {
 TEST_CASE("2D-3D correspondences follow the neighbours' tracks, one per keypoint and point") {
   const testing::SyntheticScene scene = testing::MakeSyntheticScene({});
   SceneModel model = TwoViewModel(scene);
-  const image_t id2 = SceneModel::ImageId(2);
+  const image_t id2 = SceneImageId(2);
   const std::vector<Correspondence2D3D> correspondences =
       Find2D3DCorrespondences(model.reconstruction, model.matches, id2);
   REQUIRE(correspondences.size() > 300);
@@ -56,7 +57,7 @@ TEST_CASE("The registrar registers an image at its pose with its inlier observat
   options.lsm_densification = false;  // no pixels in this scene
   Registrar registrar(options, &model.matches, &model.reconstruction, &lsm_images);
   StageTimes times;
-  const image_t id2 = SceneModel::ImageId(2);
+  const image_t id2 = SceneImageId(2);
   const Registrar::Result result = registrar.Register(id2, &times);
   REQUIRE(result.success);
   const Image& image = model.reconstruction.image(id2);
@@ -71,10 +72,10 @@ TEST_CASE("The registrar registers an image at its pose with its inlier observat
   // Too few correspondences: a reason, and nothing registered.
   options.min_num_correspondences = 10000;
   Registrar strict(options, &model.matches, &model.reconstruction, &lsm_images);
-  const Registrar::Result refused = strict.Register(SceneModel::ImageId(3), &times);
+  const Registrar::Result refused = strict.Register(SceneImageId(3), &times);
   CHECK_FALSE(refused.success);
   CHECK(refused.reason.find("too few") != std::string::npos);
-  CHECK_FALSE(model.reconstruction.image(SceneModel::ImageId(3)).IsRegistered());
+  CHECK_FALSE(model.reconstruction.image(SceneImageId(3)).IsRegistered());
 }
 
 }  // namespace

@@ -2,11 +2,12 @@
 
 #include <catch2/catch.hpp>
 
-#include "tests/testing/scene_model.h"
+#include "tests/testing/scene_reconstruction.h"
 
 namespace flysfm {
 namespace {
 
+using testing::SceneImageId;
 using testing::SceneModel;
 
 // Ten cameras on a 60 degree arc around 500 points: neighbours see the
@@ -50,7 +51,7 @@ TEST_CASE("New tracks are exact and continue into later images") {
                             NoColor());
   testing::RegisterAtTruePose(scene, 0, &model);
   testing::RegisterAtTruePose(scene, 1, &model);
-  const Triangulator::Summary first = triangulator.TriangulateImage(SceneModel::ImageId(1));
+  const Triangulator::Summary first = triangulator.TriangulateImage(SceneImageId(1));
   CHECK(first.num_new_points > 300);
   CHECK(first.num_continued == 0);
   CHECK(int(model.reconstruction.NumPoints3D()) == first.num_new_points);
@@ -59,7 +60,7 @@ TEST_CASE("New tracks are exact and continue into later images") {
   }
 
   testing::RegisterAtTruePose(scene, 2, &model);
-  const Triangulator::Summary second = triangulator.TriangulateImage(SceneModel::ImageId(2));
+  const Triangulator::Summary second = triangulator.TriangulateImage(SceneImageId(2));
   // Every point the first pair made and image 2 sees is continued, not made
   // again: one physical point, one 3D point.
   CHECK(second.num_continued > 300);
@@ -78,7 +79,7 @@ TEST_CASE("Two points that are one are merged through the new image's matches") 
   // each copy 1 mm off (a tenth of a pixel at 5 m and f = 500).
   const int p = PointSeenByImages(model, 5);
   const auto element = [&](int image) {
-    return TrackElement{SceneModel::ImageId(image), model.keypoint[image][p]};
+    return TrackElement{SceneImageId(image), model.keypoint[image][p]};
   };
   const point3D_t a = model.reconstruction.AddPoint3D(
       scene.points[p] + Eigen::Vector3d(0.001, 0, 0), {element(0), element(1)});
@@ -87,7 +88,7 @@ TEST_CASE("Two points that are one are merged through the new image's matches") 
   testing::RegisterAtTruePose(scene, 4, &model);
   Triangulator triangulator(Triangulator::Options(), &model.matches, &model.reconstruction,
                             NoColor());
-  const Triangulator::Summary summary = triangulator.TriangulateImage(SceneModel::ImageId(4));
+  const Triangulator::Summary summary = triangulator.TriangulateImage(SceneImageId(4));
   CHECK(summary.num_merged == 1);
   const bool a_survives = model.reconstruction.ExistsPoint3D(a);
   CHECK(a_survives != model.reconstruction.ExistsPoint3D(b));
@@ -102,7 +103,7 @@ TEST_CASE("Two points too far apart to be one are not merged") {
   for (int i = 0; i < 4; ++i) testing::RegisterAtTruePose(scene, i, &model);
   const int p = PointSeenByImages(model, 5);
   const auto element = [&](int image) {
-    return TrackElement{SceneModel::ImageId(image), model.keypoint[image][p]};
+    return TrackElement{SceneImageId(image), model.keypoint[image][p]};
   };
   // The second copy 20 cm off across the line of sight: the merged position
   // would lie 10 cm (about 10 px at 5 m and f = 500) from each, past the merge
@@ -113,7 +114,7 @@ TEST_CASE("Two points too far apart to be one are not merged") {
   testing::RegisterAtTruePose(scene, 4, &model);
   Triangulator triangulator(Triangulator::Options(), &model.matches, &model.reconstruction,
                             NoColor());
-  CHECK(triangulator.TriangulateImage(SceneModel::ImageId(4)).num_merged == 0);
+  CHECK(triangulator.TriangulateImage(SceneImageId(4)).num_merged == 0);
 }
 
 TEST_CASE("A pair too close to triangulate gets another try with a third ray") {
@@ -121,17 +122,17 @@ TEST_CASE("A pair too close to triangulate gets another try with a third ray") {
   SceneModel model = testing::MakeSceneModel(scene);
   // Image 2 is matched with image 1 only; images 0 and 1 are 6.7 degrees
   // apart, under the 10 degrees asked for here.
-  model.matches.SetMatches(SceneModel::ImageId(0), SceneModel::ImageId(2), {});
+  model.matches.SetMatches(SceneImageId(0), SceneImageId(2), {});
   Triangulator::Options options;
   options.triangulation.min_tri_angle_deg = 10;
   Triangulator triangulator(options, &model.matches, &model.reconstruction, NoColor());
   testing::RegisterAtTruePose(scene, 0, &model);
   testing::RegisterAtTruePose(scene, 1, &model);
   // Only the odd point near the cameras sees them under 10 degrees.
-  CHECK(triangulator.TriangulateImage(SceneModel::ImageId(1)).num_new_points < 25);
+  CHECK(triangulator.TriangulateImage(SceneImageId(1)).num_new_points < 25);
   // Image 2's rays meet image 0's, through image 1's matches, at 13 degrees.
   testing::RegisterAtTruePose(scene, 2, &model);
-  const Triangulator::Summary summary = triangulator.TriangulateImage(SceneModel::ImageId(2));
+  const Triangulator::Summary summary = triangulator.TriangulateImage(SceneImageId(2));
   CHECK(summary.num_new_points > 300);
   for (const auto& [id, point] : model.reconstruction.points3D()) {
     CHECK(point.track.size() == 3);
@@ -147,16 +148,16 @@ TEST_CASE("Tracks are completed with matched keypoints of other registered image
                             NoColor());
   // Images 0 and 1 make the points; image 2 registered but never
   // triangulated, so its keypoints observe nothing yet.
-  model.matches.SetMatches(SceneModel::ImageId(0), SceneModel::ImageId(2), {});
-  model.matches.SetMatches(SceneModel::ImageId(1), SceneModel::ImageId(2), {});
-  triangulator.TriangulateImage(SceneModel::ImageId(1));
-  CHECK(model.reconstruction.image(SceneModel::ImageId(2)).num_points3D == 0);
+  model.matches.SetMatches(SceneImageId(0), SceneImageId(2), {});
+  model.matches.SetMatches(SceneImageId(1), SceneImageId(2), {});
+  triangulator.TriangulateImage(SceneImageId(1));
+  CHECK(model.reconstruction.image(SceneImageId(2)).num_points3D == 0);
   // Image 3 sees the points and is matched to all three: the tracks it
   // continues pick up image 2 through its matches.
   testing::RegisterAtTruePose(scene, 3, &model);
-  const Triangulator::Summary summary = triangulator.TriangulateImage(SceneModel::ImageId(3));
+  const Triangulator::Summary summary = triangulator.TriangulateImage(SceneImageId(3));
   CHECK(summary.num_completed > 300);
-  CHECK(model.reconstruction.image(SceneModel::ImageId(2)).num_points3D > 300);
+  CHECK(model.reconstruction.image(SceneImageId(2)).num_points3D > 300);
 }
 
 }  // namespace
