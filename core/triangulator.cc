@@ -49,7 +49,7 @@ bool TrackHasImage(const Point3D& point, image_t image_id) {
 }  // namespace
 
 bool Triangulator::Options::Check() const {
-  return triangulation.Check() && merge_max_error_px > 0;
+  return triangulation.Check();
 }
 
 Triangulator::Triangulator(const Options& options, const MatchStore* matches,
@@ -180,7 +180,7 @@ bool Triangulator::TryMerge(point3D_t point3D_id1, point3D_t point3D_id2) {
   for (const Point3D* point : {&point1, &point2}) {
     for (const TrackElement& element : point->track) {
       if (!(reconstruction_->ReprojectionError(element.image_id, element.point2D_idx, merged) <
-            options_.merge_max_error_px)) {
+            options_.triangulation.max_error_px)) {
         return false;
       }
     }

@@ -20,12 +20,12 @@ namespace flysfm {
 class Triangulator {
  public:
   struct Options {
-    // New tracks; its max_error_px also bounds continuation and completion.
+    // New tracks. Its max_error_px is the one acceptance test of every
+    // observation the triangulator adds: a continued or completed track must
+    // reproject within it, and two points matched to each other are merged
+    // when their joint position (the track-length weighted mean) reprojects
+    // within it in every observation of both, as a new track's inliers must.
     TriangulationOptions triangulation;
-    // Two points matched to each other are merged when their joint position
-    // (the track-length weighted mean) reprojects within this many pixels in
-    // every observation of both (COLMAP's merge threshold).
-    double merge_max_error_px = 4.0;
 
     bool Check() const;
   };

@@ -106,8 +106,8 @@ TEST_CASE("Two points too far apart to be one are not merged") {
     return TrackElement{SceneImageId(image), model.keypoint[image][p]};
   };
   // The second copy 20 cm off across the line of sight: the merged position
-  // would lie 10 cm (about 10 px at 5 m and f = 500) from each, past the merge
-  // threshold of 4 px.
+  // would lie 10 cm (about 10 px at 5 m and f = 500) from each, past the
+  // threshold of 2 px.
   model.reconstruction.AddPoint3D(scene.points[p], {element(0), element(1)});
   model.reconstruction.AddPoint3D(scene.points[p] + Eigen::Vector3d(0.2, 0, 0),
                                   {element(2), element(3)});
