@@ -71,50 +71,52 @@ TEST_CASE("New tracks are exact and continue into later images") {
   CHECK(*std::max_element(points_per_scene_point.begin(), points_per_scene_point.end()) == 1);
 }
 
-TEST_CASE("Two points that are one are merged through the new image's matches") {
-  const testing::SyntheticScene scene = ArcScene();
+// One scene point seen by images 0-4 lives twice in the model: seen by images
+// 0-1 at its position + offset1 and, apart, by 2-3 at + offset2. Image 4 is
+// then registered and triangulated.
+struct TwoCopies {
+  testing::SyntheticScene scene = ArcScene();
   SceneModel model = testing::MakeSceneModel(scene);
-  for (int i = 0; i < 4; ++i) testing::RegisterAtTruePose(scene, i, &model);
-  // One scene point lives twice: seen by images 0-1 and, apart, by 2-3,
-  // each copy 1 mm off (a tenth of a pixel at 5 m and f = 500).
-  const int p = PointSeenByImages(model, 5);
-  const auto element = [&](int image) {
-    return TrackElement{SceneImageId(image), model.keypoint[image][p]};
-  };
-  const point3D_t a = model.reconstruction.AddPoint3D(
-      scene.points[p] + Eigen::Vector3d(0.001, 0, 0), {element(0), element(1)});
-  const point3D_t b = model.reconstruction.AddPoint3D(
-      scene.points[p] - Eigen::Vector3d(0.001, 0, 0), {element(2), element(3)});
-  testing::RegisterAtTruePose(scene, 4, &model);
-  Triangulator triangulator(Triangulator::Options(), &model.matches, &model.reconstruction,
-                            NoColor());
-  const Triangulator::Summary summary = triangulator.TriangulateImage(SceneImageId(4));
-  CHECK(summary.num_merged == 1);
-  const bool a_survives = model.reconstruction.ExistsPoint3D(a);
-  CHECK(a_survives != model.reconstruction.ExistsPoint3D(b));
-  const Point3D& merged = model.reconstruction.point3D(a_survives ? a : b);
+  int p = -1;
+  point3D_t a = kInvalidPoint3DId;
+  point3D_t b = kInvalidPoint3DId;
+  Triangulator::Summary summary;
+
+  TwoCopies(const Eigen::Vector3d& offset1, const Eigen::Vector3d& offset2) {
+    for (int i = 0; i < 4; ++i) testing::RegisterAtTruePose(scene, i, &model);
+    p = PointSeenByImages(model, 5);
+    const auto element = [&](int image) {
+      return TrackElement{SceneImageId(image), model.keypoint[image][p]};
+    };
+    a = model.reconstruction.AddPoint3D(scene.points[p] + offset1, {element(0), element(1)});
+    b = model.reconstruction.AddPoint3D(scene.points[p] + offset2, {element(2), element(3)});
+    testing::RegisterAtTruePose(scene, 4, &model);
+    Triangulator triangulator(Triangulator::Options(), &model.matches, &model.reconstruction,
+                              NoColor());
+    summary = triangulator.TriangulateImage(SceneImageId(4));
+  }
+};
+
+TEST_CASE("Two points that are one are merged through the new image's matches") {
+  // Each copy 1 mm off: a tenth of a pixel at 5 m and f = 500.
+  const TwoCopies copies(Eigen::Vector3d(0.001, 0, 0), Eigen::Vector3d(-0.001, 0, 0));
+  CHECK(copies.summary.num_merged == 1);
+  const Reconstruction& model = copies.model.reconstruction;
+  const bool a_survives = model.ExistsPoint3D(copies.a);
+  CHECK(a_survives != model.ExistsPoint3D(copies.b));
+  const Point3D& merged = model.point3D(a_survives ? copies.a : copies.b);
   CHECK(merged.track.size() == 5);
-  CHECK((merged.xyz - scene.points[p]).norm() < 0.001);
+  CHECK((merged.xyz - copies.scene.points[copies.p]).norm() < 0.001);
 }
 
 TEST_CASE("Two points too far apart to be one are not merged") {
-  const testing::SyntheticScene scene = ArcScene();
-  SceneModel model = testing::MakeSceneModel(scene);
-  for (int i = 0; i < 4; ++i) testing::RegisterAtTruePose(scene, i, &model);
-  const int p = PointSeenByImages(model, 5);
-  const auto element = [&](int image) {
-    return TrackElement{SceneImageId(image), model.keypoint[image][p]};
-  };
   // The second copy 20 cm off across the line of sight: the merged position
   // would lie 10 cm (about 10 px at 5 m and f = 500) from each, past the
   // threshold of 2 px.
-  model.reconstruction.AddPoint3D(scene.points[p], {element(0), element(1)});
-  model.reconstruction.AddPoint3D(scene.points[p] + Eigen::Vector3d(0.2, 0, 0),
-                                  {element(2), element(3)});
-  testing::RegisterAtTruePose(scene, 4, &model);
-  Triangulator triangulator(Triangulator::Options(), &model.matches, &model.reconstruction,
-                            NoColor());
-  CHECK(triangulator.TriangulateImage(SceneImageId(4)).num_merged == 0);
+  const TwoCopies copies(Eigen::Vector3d::Zero(), Eigen::Vector3d(0.2, 0, 0));
+  CHECK(copies.summary.num_merged == 0);
+  CHECK(copies.model.reconstruction.ExistsPoint3D(copies.a));
+  CHECK(copies.model.reconstruction.ExistsPoint3D(copies.b));
 }
 
 TEST_CASE("A pair too close to triangulate gets another try with a third ray") {
