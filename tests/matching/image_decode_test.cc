@@ -9,7 +9,7 @@
 #include <libexif/exif-data.h>
 #include <opencv2/imgcodecs.hpp>
 
-#include "io/procedural_texture.h"
+#include "io/synthetic/procedural_texture.h"
 
 namespace flysfm {
 namespace {

@@ -7,8 +7,8 @@
 #include <catch2/catch.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "io/synthetic/procedural_texture.h"
 #include "tests/retrieval/place_features.h"
-#include "io/procedural_texture.h"
 
 namespace flysfm {
 namespace {

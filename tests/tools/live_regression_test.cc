@@ -6,9 +6,9 @@
 #include <catch2/catch.hpp>
 #include <nlohmann/json.hpp>
 
-#include "io/camfi_emulator.h"
-#include "io/image_source.h"
-#include "tests/io/camfi_fixture.h"
+#include "io/camfi/camfi_emulator.h"
+#include "io/sources/image_source.h"
+#include "tests/io/camfi/camfi_fixture.h"
 #include "tests/testing/data.h"
 #include "tests/tools/live_process.h"
 

@@ -8,10 +8,10 @@
 #include <catch2/catch.hpp>
 #include <nlohmann/json.hpp>
 
-#include "io/camfi_client.h"
-#include "io/camfi_emulator.h"
-#include "io/image_markers.h"
-#include "tests/io/camfi_fixture.h"
+#include "io/camfi/camfi_client.h"
+#include "io/camfi/camfi_emulator.h"
+#include "io/sources/image_markers.h"
+#include "tests/io/camfi/camfi_fixture.h"
 #include "tests/tools/live_process.h"
 
 namespace flysfm {
