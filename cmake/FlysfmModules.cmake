@@ -13,7 +13,8 @@ endfunction()
 # <module>_<name>_test, its Catch2 cases registered with CTest. MODULE may be
 # a sub-folder path: "io/formats" gives io_formats_<name>_test. Files named
 # *_regression_test.cc read the real data sets: label `regression`, and a
-# missing data folder makes them exit 77, which CTest reports as skipped.
+# missing data folder makes them exit 77, which CTest reports as skipped
+# (or fail, with FLYSFM_REQUIRE_DATA=1).
 function(flysfm_add_module_tests module)
   cmake_parse_arguments(ARG "" "" "DEPS" ${ARGN})
   file(GLOB test_sources CONFIGURE_DEPENDS

@@ -10,6 +10,7 @@
 #include "io/camfi/camfi_emulator.h"
 #include "io/sources/image_markers.h"
 #include "tests/io/camfi/camfi_fixture.h"
+#include "tests/testing/temp_dir.h"
 
 namespace flysfm {
 namespace {
@@ -64,7 +65,7 @@ struct Outcome {
 // stored once, byte-identical, downloaded once, through %2F-encoded paths.
 Outcome RunWithFaults(const std::set<CamfiFault>& faults,
                                  const std::string& password = "") {
-  const std::filesystem::path dir = testing::FreshTempDir("camfi_client");
+  const std::filesystem::path dir = testing::MakeTempDir("camfi_client");
   const std::vector<std::filesystem::path> images =
       testing::WriteTestJpegs(dir, kShots, int(faults.size()) + 3);
   CamfiEmulatorOptions emulator_options = FastEmulator(images);
@@ -105,7 +106,6 @@ Outcome RunWithFaults(const std::set<CamfiFault>& faults,
   CHECK(std::none_of(log.begin(), log.end(), [](const std::string& line) {
     return line.rfind("GET /raw//", 0) == 0;
   }));
-  std::filesystem::remove_all(dir);
   return {stats, client_stats};
 }
 
@@ -191,7 +191,7 @@ TEST_CASE("camfi: every fault at once") {
 }
 
 TEST_CASE("camfi: Engine.IO v4 firmware as an option") {
-  const std::filesystem::path dir = testing::FreshTempDir("camfi_eio4");
+  const std::filesystem::path dir = testing::MakeTempDir("camfi_eio4");
   CamfiEmulatorOptions emulator_options = FastEmulator(testing::WriteTestJpegs(dir, 3));
   emulator_options.engine_io_version = 4;
   CamfiEmulator emulator(emulator_options);
@@ -203,11 +203,10 @@ TEST_CASE("camfi: Engine.IO v4 firmware as an option") {
   std::this_thread::sleep_for(std::chrono::milliseconds(800));
   CHECK(source.stats().sessions == 1);
   CHECK(source.stats().session_failures == 0);
-  std::filesystem::remove_all(dir);
 }
 
 TEST_CASE("camfi: a wrong password stores nothing and says why") {
-  const std::filesystem::path dir = testing::FreshTempDir("camfi_auth");
+  const std::filesystem::path dir = testing::MakeTempDir("camfi_auth");
   CamfiEmulatorOptions emulator_options =
       FastEmulator(testing::WriteTestJpegs(dir, 2));
   emulator_options.faults = {CamfiFault::kAuth};
@@ -220,11 +219,10 @@ TEST_CASE("camfi: a wrong password stores nothing and says why") {
   CHECK(stats.sessions == 0);
   CHECK(stats.session_failures > 0);
   CHECK(stats.stored == 0);
-  std::filesystem::remove_all(dir);
 }
 
 TEST_CASE("camfi: a new source on the same store replays it and fetches nothing twice") {
-  const std::filesystem::path dir = testing::FreshTempDir("camfi_restart");
+  const std::filesystem::path dir = testing::MakeTempDir("camfi_restart");
   const std::vector<std::filesystem::path> images = testing::WriteTestJpegs(dir, 8);
   CamfiEmulatorOptions emulator_options = FastEmulator(images);
   emulator_options.interval_seconds = 0.25;
@@ -247,11 +245,10 @@ TEST_CASE("camfi: a new source on the same store replays it and fetches nothing 
   std::this_thread::sleep_for(std::chrono::milliseconds(700));
   CHECK(emulator.stats().raw_served == 8);
   CHECK(JournalLines(store, "stored\t").size() == 8);
-  std::filesystem::remove_all(dir);
 }
 
 TEST_CASE("camfi: files on the card before a fresh store are ignored unless asked for") {
-  const std::filesystem::path dir = testing::FreshTempDir("camfi_existing");
+  const std::filesystem::path dir = testing::MakeTempDir("camfi_existing");
   CamfiEmulatorOptions emulator_options = FastEmulator(testing::WriteTestJpegs(dir, 3));
   CamfiEmulator emulator(emulator_options);
   for (int i = 0; i < 2; ++i) emulator.Shoot();
@@ -266,7 +263,6 @@ TEST_CASE("camfi: files on the card before a fresh store are ignored unless aske
   fetch_all.fetch_existing = true;
   CamfiSource source(fetch_all, dir / "fetch");
   CHECK(testing::PullFrames(&source, [&] { source.Stop(); }, 3, 5).size() == 3);
-  std::filesystem::remove_all(dir);
 }
 
 }  // namespace

@@ -9,6 +9,7 @@
 #include "io/camfi/websocket.h"
 #include "io/sources/image_markers.h"
 #include "tests/io/camfi/camfi_fixture.h"
+#include "tests/testing/temp_dir.h"
 
 namespace flysfm {
 namespace {
@@ -36,7 +37,7 @@ TEST_CASE("CamfiEmulatorOptions::Check") {
 }
 
 TEST_CASE("The emulator serves the card under camera-style paths") {
-  const std::filesystem::path dir = testing::FreshTempDir("camfi_emulator");
+  const std::filesystem::path dir = testing::MakeTempDir("camfi_emulator");
   const CamfiEmulatorOptions options = Options(dir, 3);
   CamfiEmulator emulator(options);
   CHECK(emulator.DevicePath(0) == "/store_00010001/DCIM/100CANON/IMG_0001.JPG");
@@ -59,11 +60,10 @@ TEST_CASE("The emulator serves the card under camera-style paths") {
   CHECK(http.Get("/raw/" + emulator.DevicePath(1), 2).status == 500);
   // Not yet shot.
   CHECK(http.Get("/raw/" + EncodeDevicePath(emulator.DevicePath(2)), 2).status == 500);
-  std::filesystem::remove_all(dir);
 }
 
 TEST_CASE("The emulator's event channel speaks Engine.IO v3") {
-  const std::filesystem::path dir = testing::FreshTempDir("camfi_emulator_events");
+  const std::filesystem::path dir = testing::MakeTempDir("camfi_emulator_events");
   CamfiEmulatorOptions options = Options(dir, 2);
   // No interval shot during the test.
   options.interval_seconds = 60;
@@ -88,11 +88,10 @@ TEST_CASE("The emulator's event channel speaks Engine.IO v3") {
   REQUIRE(event);
   CHECK(event->name == "file_added");
   CHECK(event->args[0] == emulator.DevicePath(0));
-  std::filesystem::remove_all(dir);
 }
 
 TEST_CASE("The emulator's auth and legacy firmware faults") {
-  const std::filesystem::path dir = testing::FreshTempDir("camfi_emulator_auth");
+  const std::filesystem::path dir = testing::MakeTempDir("camfi_emulator_auth");
   CamfiEmulatorOptions options = Options(dir, 1);
   options.faults = {CamfiFault::kAuth, CamfiFault::kLegacyInfo};
   options.password = "secret";
@@ -103,11 +102,10 @@ TEST_CASE("The emulator's auth and legacy firmware faults") {
   CHECK(http.Get("/camera", 2).status == 200);
   CHECK(http.Get("/info", 2).status == 404);
   CHECK(emulator.stats().unauthorized >= 2);
-  std::filesystem::remove_all(dir);
 }
 
 TEST_CASE("A per-shot fault hits every fault_every-th shot") {
-  const std::filesystem::path dir = testing::FreshTempDir("camfi_emulator_seed");
+  const std::filesystem::path dir = testing::MakeTempDir("camfi_emulator_seed");
   CamfiEmulatorOptions options = Options(dir, 6);
   options.faults = {CamfiFault::kMissing};
   options.seed = 7;
@@ -119,11 +117,10 @@ TEST_CASE("A per-shot fault hits every fault_every-th shot") {
   }
   CHECK(missing[0] == 2);
   CHECK(missing[1] == missing[0]);
-  std::filesystem::remove_all(dir);
 }
 
 TEST_CASE("The emulator's Engine.IO v4 mode: the server pings and the client joins") {
-  const std::filesystem::path dir = testing::FreshTempDir("camfi_emulator_eio4");
+  const std::filesystem::path dir = testing::MakeTempDir("camfi_emulator_eio4");
   CamfiEmulatorOptions options = Options(dir, 1);
   options.engine_io_version = 4;
   options.interval_seconds = 60;
@@ -141,7 +138,6 @@ TEST_CASE("The emulator's Engine.IO v4 mode: the server pings and the client joi
   CHECK(packet.rfind("40{", 0) == 0);
   REQUIRE(socket.Receive(&packet, 2000) == WebSocket::Status::kMessage);
   CHECK(packet == "2");
-  std::filesystem::remove_all(dir);
 }
 
 }  // namespace

@@ -4,6 +4,7 @@
 
 #include "io/camfi/camfi_emulator.h"
 #include "tests/io/camfi/camfi_fixture.h"
+#include "tests/testing/temp_dir.h"
 
 namespace flysfm {
 namespace {
@@ -15,7 +16,7 @@ TEST_CASE("EncodeDevicePath keeps the path one segment") {
 }
 
 TEST_CASE("CamfiHttp sends %2F as is and reports failures") {
-  const std::filesystem::path dir = testing::FreshTempDir("camfi_http");
+  const std::filesystem::path dir = testing::MakeTempDir("camfi_http");
   CamfiEmulatorOptions options;
   options.images = testing::WriteTestJpegs(dir, 1);
   options.http_port = 0;
@@ -31,7 +32,6 @@ TEST_CASE("CamfiHttp sends %2F as is and reports failures") {
         "GET /raw/%2Fstore_00010001%2FDCIM%2F100CANON%2FIMG_0001.JPG");
   CHECK(http.Get("/raw/%2Fno%2Fsuch.JPG", 2).status == 500);
   CHECK(http.Post("/tether/start", 2).status == 200);
-  std::filesystem::remove_all(dir);
 }
 
 TEST_CASE("CamfiHttp reports a refused connection as an error and no status") {
@@ -40,11 +40,10 @@ TEST_CASE("CamfiHttp reports a refused connection as an error and no status") {
     CamfiEmulatorOptions options;
     options.http_port = 0;
     options.event_port = 0;
-    const std::filesystem::path dir = testing::FreshTempDir("camfi_http_refused");
+    const std::filesystem::path dir = testing::MakeTempDir("camfi_http_refused");
     options.images = testing::WriteTestJpegs(dir, 1);
     CamfiEmulator emulator(options);
     port = emulator.http_port();
-    std::filesystem::remove_all(dir);
   }
   const HttpResult result = CamfiHttp("127.0.0.1", port, "").Get("/info", 1);
   CHECK(result.status == 0);

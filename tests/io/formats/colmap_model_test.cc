@@ -5,18 +5,12 @@
 #include <catch2/catch.hpp>
 
 #include "tests/testing/synthetic.h"
+#include "tests/testing/temp_dir.h"
 
 namespace flysfm {
 namespace {
 
 namespace fs = std::filesystem;
-
-fs::path TempDir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("flysfm_io_" + name);
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
 
 // A reconstruction of a noisy synthetic scene with two cameras, one image
 // left unregistered, and coloured points.
@@ -89,7 +83,7 @@ void CheckSameModel(const Reconstruction& a, const Reconstruction& b) {
 TEST_CASE("COLMAP text and binary models round-trip exactly") {
   const Reconstruction original = MakeReconstruction();
   REQUIRE(original.NumPoints3D() > 50);
-  const fs::path dir = TempDir("roundtrip");
+  const fs::path dir = testing::MakeTempDir("colmap_roundtrip");
   WriteColmapModel(original, dir);
   for (const char* file : {"cameras.txt", "images.txt", "points3D.txt",
                            "cameras.bin", "images.bin", "points3D.bin"}) {
@@ -108,7 +102,7 @@ TEST_CASE("Files follow COLMAP's pixel convention, centre of pixel (0,0) at 0.5"
   const std::vector<Eigen::Vector2d> keypoints = {{10, 20}, {30, 40}};
   for (int i = 0; i < 2; ++i) r.RegisterImage(r.AddImage("i" + std::to_string(i), camera_id, keypoints), Rigid3d());
   r.AddPoint3D({0, 0, 1}, {{1, 0}, {2, 0}});
-  const fs::path dir = TempDir("convention");
+  const fs::path dir = testing::MakeTempDir("colmap_convention");
   WriteColmapText(r, dir);
   std::ifstream cameras(dir / "cameras.txt");
   std::string line;
@@ -123,7 +117,7 @@ TEST_CASE("Files follow COLMAP's pixel convention, centre of pixel (0,0) at 0.5"
 TEST_CASE("Corrupt COLMAP models give errors naming the file") {
   using Catch::Matchers::Contains;
   const Reconstruction original = MakeReconstruction();
-  const fs::path dir = TempDir("corrupt");
+  const fs::path dir = testing::MakeTempDir("colmap_corrupt");
   WriteColmapModel(original, dir);
 
   SECTION("truncated binary") {

@@ -5,6 +5,8 @@
 
 #include <catch2/catch.hpp>
 
+#include "tests/testing/temp_dir.h"
+
 namespace flysfm {
 namespace {
 
@@ -17,7 +19,7 @@ TEST_CASE("PLY holds every point with its colour") {
   }
   r.AddPoint3D({1.5, -2, 3}, {{1, 0}, {2, 0}}, {10, 20, 30});
   r.AddPoint3D({4, 5, 6.25}, {{1, 1}, {2, 1}}, {40, 50, 60});
-  const auto path = std::filesystem::temp_directory_path() / "flysfm_test.ply";
+  const auto path = testing::MakeTempDir("ply_test") / "points.ply";
   WritePly(r, path);
 
   std::ifstream in(path, std::ios::binary);

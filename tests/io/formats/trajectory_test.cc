@@ -5,6 +5,7 @@
 #include <catch2/catch.hpp>
 
 #include "tests/testing/synthetic.h"
+#include "tests/testing/temp_dir.h"
 
 namespace flysfm {
 namespace {
@@ -16,7 +17,7 @@ TEST_CASE("TUM trajectories round-trip") {
     poses.push_back({1305031102.175304 + i / 30.0,
                      Rigid3d(testing::RandomRotation(rng), testing::RandomUnitVector(rng))});
   }
-  const auto path = std::filesystem::temp_directory_path() / "flysfm_traj.txt";
+  const auto path = testing::MakeTempDir("trajectory_test") / "trajectory.txt";
   WriteTumTrajectory(poses, path);
   const std::vector<StampedPose> read = ReadTumTrajectory(path);
   REQUIRE(read.size() == poses.size());
@@ -28,7 +29,7 @@ TEST_CASE("TUM trajectories round-trip") {
 }
 
 TEST_CASE("Malformed trajectory lines name their line") {
-  const auto path = std::filesystem::temp_directory_path() / "flysfm_bad_traj.txt";
+  const auto path = testing::MakeTempDir("trajectory_test") / "bad_trajectory.txt";
   std::ofstream(path) << "# comment\n1 0 0 0 0 0 0 1\n2 0 0 zero 0 0 0 1\n";
   CHECK_THROWS_WITH(ReadTumTrajectory(path), Catch::Matchers::Contains(":3:"));
 }

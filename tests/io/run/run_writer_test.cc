@@ -13,6 +13,8 @@
 #include "core/engine.h"
 #include "io/formats/colmap_model.h"
 #include "io/synthetic/synthetic_source.h"
+#include "tests/testing/skip.h"
+#include "tests/testing/temp_dir.h"
 
 namespace flysfm {
 namespace {
@@ -37,8 +39,7 @@ const WrittenRun& Written() {
       for (const ImageResult& result : engine.AddImage(frame)) results.push_back(result);
     }
     engine.Finish();
-    WrittenRun written{engine.reconstruction(), fs::temp_directory_path() / "flysfm_run_writer_test"};
-    fs::remove_all(written.dir);
+    WrittenRun written{engine.reconstruction(), testing::MakeTempDir("run_writer_test")};
     RunWriter writer(written.dir);
     for (const ImageResult& result : results) writer.Log(result);
     writer.WriteModel(written.model);
@@ -105,8 +106,7 @@ TEST_CASE("The run's sparse/ model reads back, text and binary, as the engine's 
 
 TEST_CASE("colmap model_analyzer reads the run's sparse/ model, binary and text") {
   if (std::system("command -v colmap > /dev/null 2>&1") != 0) {
-    WARN("colmap is not installed (scripts/setup.sh installs it): check skipped");
-    return;
+    testing::SkipTest("colmap is not installed (scripts/setup.sh installs it)");
   }
   const WrittenRun& run = Written();
   // sparse/ holds both formats; COLMAP reads the .bin files when present, so

@@ -4,15 +4,15 @@
 
 #include <catch2/catch.hpp>
 
+#include "tests/testing/temp_dir.h"
+
 namespace flysfm {
 namespace {
 
 namespace fs = std::filesystem;
 
 fs::path MakeFolder(const std::string& name, const std::vector<std::string>& files) {
-  const fs::path dir = fs::temp_directory_path() / ("flysfm_src_" + name);
-  fs::remove_all(dir);
-  fs::create_directories(dir);
+  const fs::path dir = testing::MakeTempDir("image_source_" + name);
   for (const auto& file : files) std::ofstream(dir / file) << "x";
   return dir;
 }

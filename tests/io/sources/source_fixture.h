@@ -1,12 +1,9 @@
 #pragma once
 
 // Shared by the tests of live sources (watched folder, CAMFI): small distinct
-// JPEG shots, a fresh temporary folder, and pulling frames from a source with
-// a deadline so that a broken source fails the test instead of hanging it.
+// JPEG shots, and pulling frames from a source with a deadline so that a
+// broken source fails the test instead of hanging it.
 
-#include <unistd.h>
-
-#include <atomic>
 #include <chrono>
 #include <condition_variable>
 #include <cstdint>
@@ -14,7 +11,6 @@
 #include <filesystem>
 #include <functional>
 #include <mutex>
-#include <string>
 #include <thread>
 #include <vector>
 
@@ -24,16 +20,6 @@
 #include "io/sources/image_source.h"
 
 namespace flysfm::testing {
-
-inline std::filesystem::path FreshTempDir(const std::string& name) {
-  static std::atomic<int> counter{0};
-  const std::filesystem::path dir =
-      std::filesystem::temp_directory_path() /
-      ("flysfm_" + name + "_" + std::to_string(::getpid()) + "_" + std::to_string(counter++));
-  std::filesystem::remove_all(dir);
-  std::filesystem::create_directories(dir);
-  return dir;
-}
 
 // `count` JPEGs of random texture (different sizes, so their byte counts
 // differ too), "shot00.jpg", "shot01.jpg", ...

@@ -8,6 +8,7 @@
 #include "io/sources/image_markers.h"
 #include "matching/image_decode.h"
 #include "tests/io/sources/source_fixture.h"
+#include "tests/testing/temp_dir.h"
 
 namespace flysfm {
 namespace {
@@ -44,7 +45,7 @@ TEST_CASE("WatchedFolderOptions::Check") {
 }
 
 TEST_CASE("Files written slowly are handed on whole and once each in arrival order") {
-  const std::filesystem::path dir = testing::FreshTempDir("watch");
+  const std::filesystem::path dir = testing::MakeTempDir("watch");
   const std::filesystem::path shots = dir / "shots";
   const std::filesystem::path inbox = dir / "inbox";
   std::filesystem::create_directories(inbox);
@@ -68,11 +69,10 @@ TEST_CASE("Files written slowly are handed on whole and once each in arrival ord
     CHECK(frame.bytes == ReadFileBytes(images[std::size_t(3 - k)]));
     CHECK(DecodeImageBytes(frame.bytes).ok());
   }
-  std::filesystem::remove_all(dir);
 }
 
 TEST_CASE("A file that never completes is reported and not handed on") {
-  const std::filesystem::path dir = testing::FreshTempDir("watch_incomplete");
+  const std::filesystem::path dir = testing::MakeTempDir("watch_incomplete");
   const std::vector<std::filesystem::path> images = testing::WriteTestJpegs(dir / "shots", 2);
   std::filesystem::create_directories(dir / "inbox");
   std::vector<std::uint8_t> cut = ReadFileBytes(images[0]);
@@ -86,7 +86,6 @@ TEST_CASE("A file that never completes is reported and not handed on") {
   REQUIRE(frames.size() == 1);
   CHECK(frames[0].name == "whole.jpg");
   CHECK(source.num_incomplete() == 1);
-  std::filesystem::remove_all(dir);
 }
 
 }  // namespace
