@@ -9,9 +9,9 @@
 //
 // Frames are fed as the batch command feeds them: the next frame is decoded
 // and its features extracted on the second core while the engine works
-// (io/prepared_source.h). Two per-image times are reported: the engine's
-// (AddImage of a prepared frame: what bounds the frame rate) and the work of
-// all stages including decoding and features, wherever they ran.
+// (io/sources/prepared_source.h). Two per-image times are reported: the
+// engine's (AddImage of a prepared frame: what bounds the frame rate) and the
+// work of all stages including decoding and features, wherever they ran.
 
 #include <algorithm>
 #include <chrono>
@@ -26,11 +26,11 @@
 #include <nlohmann/json.hpp>
 
 #include "core/engine.h"
-#include "io/evaluation.h"
-#include "io/image_source.h"
-#include "io/prepared_source.h"
-#include "io/run_writer.h"
-#include "io/trajectory.h"
+#include "io/evaluation/evaluation.h"
+#include "io/formats/trajectory.h"
+#include "io/run/run_writer.h"
+#include "io/sources/image_source.h"
+#include "io/sources/prepared_source.h"
 
 namespace flysfm {
 namespace {

@@ -23,9 +23,9 @@
 #include <nlohmann/json.hpp>
 
 #include "core/engine.h"
-#include "io/camfi_client.h"
-#include "io/camfi_emulator.h"
-#include "io/image_source.h"
+#include "io/camfi/camfi_client.h"
+#include "io/camfi/camfi_emulator.h"
+#include "io/sources/image_source.h"
 
 namespace {
 

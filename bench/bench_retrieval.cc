@@ -20,11 +20,11 @@
 #include <opencv2/features2d.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "io/sources/image_source.h"
 #include "matching/image_decode.h"
 #include "retrieval/image_index.h"
 #include "retrieval/retrieval_model.h"
 #include "tests/testing/data.h"
-#include "tests/testing/datasets.h"
 
 namespace flysfm {
 namespace {
@@ -133,11 +133,11 @@ ExtractionFigures BenchExtraction() {
     std::printf("extraction: skipped, %s not found\n", rgb_txt.c_str());
     return f;
   }
-  const auto frames = testing::ReadTumFrames(rgb_txt);
+  const std::vector<Frame> frames = ListTumSequence(testing::DataPath(sequence));
   std::vector<cv::Mat> images;
   for (std::size_t i = 0; i < frames.size() && images.size() < 30; i += 10) {
     const auto start = Clock::now();
-    const DecodedImage decoded = DecodeImageFile(testing::DataPath(sequence + "/" + frames[i].file));
+    const DecodedImage decoded = DecodeImageFile(frames[i].path.string());
     f.decode_ms += MsSince(start);
     if (decoded.ok()) images.push_back(decoded.image);
   }

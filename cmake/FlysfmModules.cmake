@@ -10,16 +10,19 @@ endfunction()
 
 # flysfm_add_module_tests(MODULE DEPS ...)
 # Every tests/<module>/<name>_test.cc becomes one executable
-# <module>_<name>_test, its Catch2 cases registered with CTest. Files named
+# <module>_<name>_test, its Catch2 cases registered with CTest. MODULE may be
+# a sub-folder path: "io/formats" gives io_formats_<name>_test. Files named
 # *_regression_test.cc read the real data sets: label `regression`, and a
-# missing data folder makes them exit 77, which CTest reports as skipped.
+# missing data folder makes them exit 77, which CTest reports as skipped
+# (or fail, with FLYSFM_REQUIRE_DATA=1).
 function(flysfm_add_module_tests module)
   cmake_parse_arguments(ARG "" "" "DEPS" ${ARGN})
   file(GLOB test_sources CONFIGURE_DEPENDS
        "${CMAKE_CURRENT_SOURCE_DIR}/*_test.cc")
+  string(REPLACE "/" "_" target_prefix ${module})
   foreach(source ${test_sources})
     get_filename_component(stem ${source} NAME_WE)
-    set(target ${module}_${stem})
+    set(target ${target_prefix}_${stem})
     add_executable(${target} ${source})
     if(stem MATCHES "_regression_test$")
       target_link_libraries(${target} PRIVATE flysfm_test_regression_main

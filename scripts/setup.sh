@@ -9,11 +9,10 @@ packages=(
   libeigen3-dev
   libceres-dev libsuitesparse-dev
   libopencv-dev
-  nlohmann-json3-dev libspdlog-dev
+  nlohmann-json3-dev
   catch2 libcli11-dev libcpp-httplib-dev libcurl4-openssl-dev
-  libbenchmark-dev
   libopenblas-serial-dev libexif-dev
-  libwebsocketpp-dev libasio-dev
+  libwebsocketpp-dev
   colmap
 )
 

@@ -1,13 +1,14 @@
 // Regression tests read real data from the shared data folder. Where it is
 // absent (a user's fresh machine) they skip with a message instead of
-// failing; CTest maps exit code 77 to "skipped".
+// failing; CTest maps exit code 77 to "skipped". With FLYSFM_REQUIRE_DATA=1
+// (CI) an absent folder fails them instead (testing::SkipTest).
 #define CATCH_CONFIG_RUNNER
 #include <catch2/catch.hpp>
 
 #include <filesystem>
-#include <iostream>
 
 #include "tests/testing/data.h"
+#include "tests/testing/skip.h"
 
 int main(int argc, char* argv[]) {
   Catch::Session session;
@@ -16,10 +17,9 @@ int main(int argc, char* argv[]) {
   const bool listing = config.listTests || config.listTestNamesOnly ||
                        config.listTags || config.listReporters;
   if (!listing && !std::filesystem::is_directory(flysfm::testing::DataDir())) {
-    std::cout << "skipped: shared data folder not found at "
-              << flysfm::testing::DataDir()
-              << " (set FLYSFM_DATA to its location)\n";
-    return 77;
+    flysfm::testing::SkipTest("shared data folder not found at " +
+                              flysfm::testing::DataDir() +
+                              " (set FLYSFM_DATA to its location)");
   }
   return session.run();
 }

@@ -10,8 +10,8 @@
 #include <iostream>
 #include <sstream>
 
-#include "io/camfi_emulator.h"
-#include "io/image_source.h"
+#include "io/camfi/camfi_emulator.h"
+#include "io/sources/image_source.h"
 #include "tools/commands.h"
 
 namespace flysfm {

@@ -6,8 +6,8 @@
 #include <iostream>
 #include <map>
 
-#include "io/evaluation.h"
-#include "io/synthetic_source.h"
+#include "io/evaluation/evaluation.h"
+#include "io/synthetic/synthetic_source.h"
 #include "tools/commands.h"
 #include "tools/engine_flags.h"
 

@@ -7,7 +7,7 @@
 #include <map>
 #include <optional>
 
-#include "io/prepared_source.h"
+#include "io/sources/prepared_source.h"
 #include "retrieval/retrieval_model.h"
 
 namespace flysfm {

@@ -9,8 +9,8 @@
 #include <CLI/CLI.hpp>
 
 #include "core/engine.h"
-#include "io/image_source.h"
-#include "io/run_writer.h"
+#include "io/run/run_writer.h"
+#include "io/sources/image_source.h"
 
 namespace flysfm {
 

@@ -3,7 +3,7 @@
 
 #include <iostream>
 
-#include "io/evaluation.h"
+#include "io/evaluation/evaluation.h"
 #include "tools/commands.h"
 
 namespace flysfm {

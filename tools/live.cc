@@ -14,8 +14,8 @@
 #include <mutex>
 #include <thread>
 
-#include "io/camfi_client.h"
-#include "io/watched_folder.h"
+#include "io/camfi/camfi_client.h"
+#include "io/sources/watched_folder.h"
 #include "tools/commands.h"
 #include "tools/engine_flags.h"
 

@@ -8,9 +8,9 @@
 
 #include <catch2/catch.hpp>
 
-#include "io/evaluation.h"
-#include "io/image_source.h"
-#include "io/prepared_source.h"
+#include "io/evaluation/evaluation.h"
+#include "io/sources/image_source.h"
+#include "io/sources/prepared_source.h"
 #include "tests/testing/data.h"
 #include "tests/testing/datasets.h"
 

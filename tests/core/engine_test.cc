@@ -7,8 +7,8 @@
 
 #include <catch2/catch.hpp>
 
-#include "io/evaluation.h"
-#include "io/synthetic_source.h"
+#include "io/evaluation/evaluation.h"
+#include "io/synthetic/synthetic_source.h"
 
 namespace flysfm {
 namespace {

@@ -3,7 +3,7 @@
 #include <catch2/catch.hpp>
 
 #include "core/engine.h"
-#include "io/synthetic_source.h"
+#include "io/synthetic/synthetic_source.h"
 
 namespace flysfm {
 namespace {

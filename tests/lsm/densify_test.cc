@@ -9,7 +9,7 @@
 
 #include <catch2/catch.hpp>
 
-#include "io/synthetic_scene.h"
+#include "io/synthetic/synthetic_scene.h"
 #include "tests/testing/synthetic.h"
 
 namespace flysfm {

@@ -9,7 +9,7 @@
 #include <Eigen/Geometry>
 #include <catch2/catch.hpp>
 
-#include "io/procedural_texture.h"
+#include "io/synthetic/procedural_texture.h"
 #include "tests/testing/affine_pair.h"
 
 namespace flysfm {

@@ -15,11 +15,11 @@
 #include "geometry/camera.h"
 #include "geometry/fundamental_matrix.h"
 #include "geometry/two_view_geometry.h"
+#include "io/sources/image_source.h"
 #include "lsm/refine_matches.h"
 #include "matching/features.h"
 #include "matching/matcher.h"
 #include "tests/testing/data.h"
-#include "tests/testing/datasets.h"
 
 namespace flysfm {
 namespace {
@@ -162,12 +162,10 @@ PairFigures EvaluatePair(const cv::Mat& image1, const cv::Mat& image2,
 }
 
 std::vector<std::string> TumFrames() {
-  const std::string folder =
-      testing::DataPath("tum/rgbd_dataset_freiburg1_xyz");
   std::vector<std::string> frames;
-  for (const testing::TumFrame& frame :
-       testing::ReadTumFrames(folder + "/rgb.txt")) {
-    frames.push_back(folder + "/" + frame.file);
+  for (const Frame& frame :
+       ListTumSequence(testing::DataPath("tum/rgbd_dataset_freiburg1_xyz"))) {
+    frames.push_back(frame.path.string());
   }
   return frames;
 }

@@ -7,8 +7,8 @@
 #include <catch2/catch.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "io/synthetic/procedural_texture.h"
 #include "matching/matcher.h"
-#include "io/procedural_texture.h"
 #include "tests/testing/warped_pair.h"
 
 namespace flysfm {

@@ -9,7 +9,8 @@
 #include <libexif/exif-data.h>
 #include <opencv2/imgcodecs.hpp>
 
-#include "io/procedural_texture.h"
+#include "io/synthetic/procedural_texture.h"
+#include "tests/testing/temp_dir.h"
 
 namespace flysfm {
 namespace {
@@ -71,9 +72,7 @@ TEST_CASE("bad bytes give an error and never a crash") {
 
 TEST_CASE("image files are decoded and listed and missing ones give errors") {
   namespace fs = std::filesystem;
-  const fs::path dir = fs::temp_directory_path() / "flysfm_image_decode_test";
-  fs::remove_all(dir);
-  fs::create_directories(dir);
+  const fs::path dir = testing::MakeTempDir("image_decode_test");
   const cv::Mat image = MakeTexture(64, 48, 4, true);
   REQUIRE(cv::imwrite((dir / "b.png").string(), image));
   REQUIRE(cv::imwrite((dir / "a.JPG").string(), image));
@@ -91,7 +90,6 @@ TEST_CASE("image files are decoded and listed and missing ones give errors") {
   CHECK(fs::path(files[0]).filename() == "a.JPG");
   CHECK(fs::path(files[1]).filename() == "b.png");
   CHECK_THROWS_AS(ListImageFiles((dir / "nope").string()), std::invalid_argument);
-  fs::remove_all(dir);
 }
 
 // A JPEG with an EXIF APP1 segment holding the given tags (SHORT values for

@@ -8,7 +8,7 @@
 
 #include <catch2/catch.hpp>
 
-#include "io/procedural_texture.h"
+#include "io/synthetic/procedural_texture.h"
 #include "tests/testing/warped_pair.h"
 
 namespace flysfm {

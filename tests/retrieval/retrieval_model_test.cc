@@ -7,8 +7,9 @@
 #include <catch2/catch.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "io/synthetic/procedural_texture.h"
 #include "tests/retrieval/place_features.h"
-#include "io/procedural_texture.h"
+#include "tests/testing/temp_dir.h"
 
 namespace flysfm {
 namespace {
@@ -33,7 +34,7 @@ TEST_CASE("a retrieval model saves and loads exactly") {
   // Trained on 40 images x 9 samples: more than one leaf.
   CHECK(model.tree.NumLeaves() > 5);
 
-  const std::string path = (fs::temp_directory_path() / "flysfm_retrieval_model_test.bin").string();
+  const std::string path = (testing::MakeTempDir("retrieval_model_test") / "model.bin").string();
   model.Save(path);
   const RetrievalModel loaded = RetrievalModel::Load(path);
   CHECK(loaded.vlad == model.vlad);
@@ -50,9 +51,7 @@ TEST_CASE("a retrieval model saves and loads exactly") {
 }
 
 TEST_CASE("training from files skips undecodable ones and fails with none usable") {
-  const fs::path dir = fs::temp_directory_path() / "flysfm_retrieval_model_files";
-  fs::remove_all(dir);
-  fs::create_directories(dir);
+  const fs::path dir = testing::MakeTempDir("retrieval_model_files");
   for (int i = 0; i < 3; ++i) {
     REQUIRE(cv::imwrite((dir / ("t" + std::to_string(i) + ".png")).string(),
                         MakeTexture(320, 240, 20 + i)));
@@ -69,7 +68,6 @@ TEST_CASE("training from files skips undecodable ones and fails with none usable
 
   CHECK_THROWS_AS(TrainRetrievalModelFromFiles({(dir / "broken.jpg").string()}, SmallOptions()),
                   std::invalid_argument);
-  fs::remove_all(dir);
 }
 
 }  // namespace

@@ -12,6 +12,8 @@
 
 #include <catch2/catch.hpp>
 
+#include "io/formats/trajectory.h"
+#include "io/sources/image_source.h"
 #include "matching/image_decode.h"
 #include "retrieval/image_retriever.h"
 #include "retrieval/retrieval_model.h"
@@ -36,8 +38,8 @@ std::vector<FeatureSet> ExtractAll(const std::vector<std::string>& paths) {
 const std::vector<FeatureSet>& TumFeatures() {
   static const std::vector<FeatureSet> features = [] {
     std::vector<std::string> paths;
-    for (const auto& frame : testing::ReadTumFrames(testing::DataPath(kTum + "/rgb.txt"))) {
-      paths.push_back(testing::DataPath(kTum + "/" + frame.file));
+    for (const Frame& frame : ListTumSequence(testing::DataPath(kTum))) {
+      paths.push_back(frame.path.string());
     }
     return ExtractAll(paths);
   }();
@@ -83,13 +85,18 @@ struct TumGroundTruth {
 };
 
 TumGroundTruth ReadTumGroundTruth() {
-  const auto frames = testing::ReadTumFrames(testing::DataPath(kTum + "/rgb.txt"));
-  const auto poses = testing::ReadTumGroundTruth(testing::DataPath(kTum + "/groundtruth.txt"));
-  const std::vector<int> association = testing::AssociateTum(frames, poses);
+  const std::vector<Frame> frames = ListTumSequence(testing::DataPath(kTum));
+  const std::vector<StampedPose> poses =
+      ReadTumTrajectory(testing::DataPath(kTum + "/groundtruth.txt"));
+  // The frames' timestamps, to associate them with the ground-truth poses.
+  std::vector<StampedPose> frame_times;
+  for (const Frame& frame : frames) frame_times.push_back({frame.timestamp, Rigid3d()});
   TumGroundTruth truth;
-  for (int index : association) {
-    truth.has_pose.push_back(index >= 0);
-    truth.centres.push_back(index >= 0 ? poses[index].position : Eigen::Vector3d::Zero());
+  truth.has_pose.assign(frames.size(), false);
+  truth.centres.assign(frames.size(), Eigen::Vector3d::Zero());
+  for (const auto& [frame, pose] : AssociateByTimestamp(frame_times, poses)) {
+    truth.has_pose[frame] = true;
+    truth.centres[frame] = poses[pose].world_from_cam.translation;
   }
   int count = 0;
   for (std::size_t i = 10; i < frames.size(); ++i) {

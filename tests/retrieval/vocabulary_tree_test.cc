@@ -9,6 +9,8 @@
 
 #include <catch2/catch.hpp>
 
+#include "tests/testing/temp_dir.h"
+
 namespace flysfm {
 namespace {
 
@@ -59,8 +61,7 @@ TEST_CASE("a small training set gives a small tree") {
 TEST_CASE("tree save and load round-trip exactly") {
   const VocabularyTree tree =
       VocabularyTree::Train(RandomPoints(2000, 64, 3), VocabularyTreeOptions());
-  const std::string path =
-      (std::filesystem::temp_directory_path() / "flysfm_vocabulary_tree_test.bin").string();
+  const std::string path = (testing::MakeTempDir("vocabulary_tree_test") / "tree.bin").string();
   tree.Save(path);
   const VocabularyTree loaded = VocabularyTree::Load(path);
   CHECK(loaded == tree);

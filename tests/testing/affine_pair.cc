@@ -4,7 +4,7 @@
 
 #include <opencv2/imgproc.hpp>
 
-#include "io/procedural_texture.h"
+#include "io/synthetic/procedural_texture.h"
 
 namespace flysfm::testing {
 

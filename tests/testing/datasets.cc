@@ -1,10 +1,10 @@
 #include "tests/testing/datasets.h"
 
-#include <algorithm>
-#include <cmath>
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
+
+#include "io/formats/data_lines.h"
 
 namespace flysfm::testing {
 namespace {
@@ -19,11 +19,7 @@ std::ifstream Open(const std::string& path) {
 std::vector<std::string> DataLines(const std::string& path) {
   std::ifstream in = Open(path);
   std::vector<std::string> lines;
-  for (std::string line; std::getline(in, line);) {
-    const auto first = line.find_first_not_of(" \t\r");
-    if (first == std::string::npos || line[first] == '#') continue;
-    lines.push_back(line);
-  }
+  ForEachDataLine(in, [&](const std::string& line, int) { lines.push_back(line); });
   return lines;
 }
 
@@ -32,55 +28,6 @@ std::vector<std::string> DataLines(const std::string& path) {
 }
 
 }  // namespace
-
-std::vector<TumFrame> ReadTumFrames(const std::string& rgb_txt) {
-  std::vector<TumFrame> frames;
-  for (const std::string& line : DataLines(rgb_txt)) {
-    std::istringstream stream(line);
-    TumFrame frame;
-    if (!(stream >> frame.timestamp >> frame.file)) Malformed(rgb_txt, line);
-    frames.push_back(frame);
-  }
-  return frames;
-}
-
-std::vector<TumPose> ReadTumGroundTruth(const std::string& groundtruth_txt) {
-  std::vector<TumPose> poses;
-  for (const std::string& line : DataLines(groundtruth_txt)) {
-    std::istringstream stream(line);
-    TumPose pose;
-    double qx, qy, qz, qw;
-    if (!(stream >> pose.timestamp >> pose.position.x() >> pose.position.y() >>
-          pose.position.z() >> qx >> qy >> qz >> qw)) {
-      Malformed(groundtruth_txt, line);
-    }
-    pose.world_from_cam = Eigen::Quaterniond(qw, qx, qy, qz).normalized();
-    poses.push_back(pose);
-  }
-  return poses;
-}
-
-std::vector<int> AssociateTum(const std::vector<TumFrame>& frames,
-                              const std::vector<TumPose>& poses, double max_difference) {
-  std::vector<int> result;
-  for (const TumFrame& frame : frames) {
-    const auto after = std::lower_bound(
-        poses.begin(), poses.end(), frame.timestamp,
-        [](const TumPose& pose, double t) { return pose.timestamp < t; });
-    int best = -1;
-    double best_difference = max_difference;
-    for (auto it : {after, after == poses.begin() ? after : std::prev(after)}) {
-      if (it == poses.end()) continue;
-      const double difference = std::abs(it->timestamp - frame.timestamp);
-      if (difference <= best_difference) {
-        best_difference = difference;
-        best = int(it - poses.begin());
-      }
-    }
-    result.push_back(best);
-  }
-  return result;
-}
 
 StrechaCamera ReadStrechaCamera(const std::string& path) {
   std::ifstream in = Open(path);

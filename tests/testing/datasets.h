@@ -1,8 +1,9 @@
 #pragma once
 
 // Readers for the ground truth of the shared real data sets (see
-// ../shared/data/README.md). A missing or malformed file throws
-// std::runtime_error naming it.
+// ../shared/data/README.md) that io does not read itself: TUM sequences and
+// trajectories are io's (ListTumSequence, ReadTumTrajectory). A missing or
+// malformed file throws std::runtime_error naming it.
 
 #include <string>
 #include <vector>
@@ -11,27 +12,6 @@
 #include <Eigen/Geometry>
 
 namespace flysfm::testing {
-
-// One line of a TUM rgb.txt: timestamp and path relative to the sequence.
-struct TumFrame {
-  double timestamp = 0;
-  std::string file;
-};
-std::vector<TumFrame> ReadTumFrames(const std::string& rgb_txt);
-
-// One line of a TUM groundtruth.txt: camera-to-world pose.
-struct TumPose {
-  double timestamp = 0;
-  Eigen::Vector3d position = Eigen::Vector3d::Zero();
-  Eigen::Quaterniond world_from_cam = Eigen::Quaterniond::Identity();
-};
-std::vector<TumPose> ReadTumGroundTruth(const std::string& groundtruth_txt);
-
-// For each frame, the index of the pose nearest in time if within
-// `max_difference` seconds (TUM's convention: 0.02), else -1. `poses` sorted
-// by time, as in the files.
-std::vector<int> AssociateTum(const std::vector<TumFrame>& frames,
-                              const std::vector<TumPose>& poses, double max_difference = 0.02);
 
 // A Strecha .camera file: K, R (camera-to-world rotation), centre C; the
 // projection is K [R^T | -R^T C].

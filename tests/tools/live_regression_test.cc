@@ -6,10 +6,11 @@
 #include <catch2/catch.hpp>
 #include <nlohmann/json.hpp>
 
-#include "io/camfi_emulator.h"
-#include "io/image_source.h"
-#include "tests/io/camfi_fixture.h"
+#include "io/camfi/camfi_emulator.h"
+#include "io/sources/image_source.h"
+#include "tests/io/camfi/camfi_fixture.h"
 #include "tests/testing/data.h"
+#include "tests/testing/temp_dir.h"
 #include "tests/tools/live_process.h"
 
 namespace flysfm {
@@ -37,7 +38,7 @@ TEST_CASE("live from the emulator registers the same images as batch") {
   options.event_port = 0;
   options.interval_seconds = 0.5;
   CamfiEmulator emulator(options);
-  const std::filesystem::path dir = testing::FreshTempDir("live_vs_batch");
+  const std::filesystem::path dir = testing::MakeTempDir("live_vs_batch");
   const std::string camera = "PINHOLE 535.4,539.2,320.1,247.6";
 
   const pid_t live = testing::SpawnFlysfm(
@@ -65,7 +66,6 @@ TEST_CASE("live from the emulator registers the same images as batch") {
       nlohmann::json::parse(testing::ReadText(dir / "batch" / "summary.json"));
   CHECK(live_summary["registered"] == batch_summary["registered"]);
   CHECK(live_summary["points"] == batch_summary["points"]);
-  std::filesystem::remove_all(dir);
 }
 
 }  // namespace

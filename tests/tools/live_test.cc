@@ -8,10 +8,11 @@
 #include <catch2/catch.hpp>
 #include <nlohmann/json.hpp>
 
-#include "io/camfi_client.h"
-#include "io/camfi_emulator.h"
-#include "io/image_markers.h"
-#include "tests/io/camfi_fixture.h"
+#include "io/camfi/camfi_client.h"
+#include "io/camfi/camfi_emulator.h"
+#include "io/sources/image_markers.h"
+#include "tests/io/camfi/camfi_fixture.h"
+#include "tests/testing/temp_dir.h"
 #include "tests/tools/live_process.h"
 
 namespace flysfm {
@@ -37,7 +38,7 @@ std::set<std::string> LoggedNames(const std::filesystem::path& out) {
 }
 
 TEST_CASE("live: SIGINT ends the run cleanly with every received shot processed") {
-  const std::filesystem::path dir = testing::FreshTempDir("live_sigint");
+  const std::filesystem::path dir = testing::MakeTempDir("live_sigint");
   CamfiEmulator emulator(
       testing::LoopbackEmulator(testing::WriteTestJpegs(dir / "shots", kShots), 0.3));
   const std::filesystem::path out = dir / "out";
@@ -52,11 +53,10 @@ TEST_CASE("live: SIGINT ends the run cleanly with every received shot processed"
   CHECK(summary["images_in"].get<std::size_t>() == received);
   CHECK(LoggedNames(out).size() == received);
   CHECK(std::filesystem::exists(out / "sparse"));
-  std::filesystem::remove_all(dir);
 }
 
 TEST_CASE("live: after SIGKILL a restart loses nothing and fetches nothing twice") {
-  const std::filesystem::path dir = testing::FreshTempDir("live_sigkill");
+  const std::filesystem::path dir = testing::MakeTempDir("live_sigkill");
   const std::vector<std::filesystem::path> images =
       testing::WriteTestJpegs(dir / "shots", kShots);
   CamfiEmulator emulator(testing::LoopbackEmulator(images, 0.3));
@@ -98,7 +98,6 @@ TEST_CASE("live: after SIGKILL a restart loses nothing and fetches nothing twice
   REQUIRE(std::regex_search(output, match, std::regex("camfi: (\\d+) stored, (\\d+) replayed")));
   CHECK(std::stoul(match[2]) >= stored_before.size());
   CHECK(std::stoul(match[1]) + std::stoul(match[2]) == std::size_t(kShots));
-  std::filesystem::remove_all(dir);
 }
 
 }  // namespace

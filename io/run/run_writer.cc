@@ -1,0 +1,116 @@
+#include "io/run/run_writer.h"
+
+#include <algorithm>
+#include <stdexcept>
+
+#include "io/formats/atomic_file.h"
+#include "io/formats/colmap_model.h"
+#include "io/formats/ply.h"
+#include "io/formats/trajectory.h"
+
+namespace flysfm {
+namespace {
+
+double Percentile(std::vector<double> values, double fraction) {
+  if (values.empty()) return 0;
+  std::sort(values.begin(), values.end());
+  const double position = fraction * (values.size() - 1);
+  const std::size_t below = std::size_t(position);
+  const std::size_t above = std::min(below + 1, values.size() - 1);
+  return values[below] + (position - below) * (values[above] - values[below]);
+}
+
+}  // namespace
+
+nlohmann::json ToJson(const ImageResult& result) {
+  nlohmann::json json = {
+      {"name", result.name},
+      {"status", ImageStatusName(result.status)},
+      {"features", result.num_features},
+      {"candidates", result.num_candidates},
+      {"verified_pairs", result.num_verified_pairs},
+      {"lsm_rejected", result.num_lsm_rejected},
+      {"correspondences", result.num_correspondences},
+      {"densified", result.num_densified},
+      {"pose_inliers", result.num_pose_inliers},
+      {"new_points", result.num_new_points},
+      {"merged_points", result.num_merged_points},
+      {"completed", result.num_completed},
+      {"observations", result.num_observations},
+      {"ba", {{"free_images", result.ba_free_images},
+              {"images", result.ba_images},
+              {"points", result.ba_points},
+              {"iterations", result.ba_iterations}}},
+      {"model_images", result.model_images},
+      {"model_points", result.model_points}};
+  if (result.image_id != kInvalidImageId) json["image_id"] = result.image_id;
+  if (!result.reason.empty()) json["reason"] = result.reason;
+  if (result.cam_from_world) {
+    const Rigid3d& pose = *result.cam_from_world;
+    json["cam_from_world"] = {
+        {"qw", pose.rotation.w()}, {"qx", pose.rotation.x()},
+        {"qy", pose.rotation.y()}, {"qz", pose.rotation.z()},
+        {"tx", pose.translation.x()}, {"ty", pose.translation.y()},
+        {"tz", pose.translation.z()}};
+  }
+  nlohmann::json times;
+  for (const auto& [name, member] : StageTimes::Stages()) times[name] = result.times.*member;
+  times["total"] = result.times.total;
+  json["ms"] = times;
+  return json;
+}
+
+nlohmann::json StageTimeStatistics(const std::vector<ImageResult>& results) {
+  nlohmann::json json;
+  std::vector<StageTimes::Stage> stages = StageTimes::Stages();
+  stages.emplace_back("total", &StageTimes::total);
+  for (const auto& [name, member] : stages) {
+    std::vector<double> values;
+    for (const ImageResult& result : results) {
+      if (result.status != ImageStatus::kRejected) values.push_back(result.times.*member);
+    }
+    json[name] = {{"median", Percentile(values, 0.5)}, {"p95", Percentile(values, 0.95)}};
+  }
+  return json;
+}
+
+RunWriter::RunWriter(const std::filesystem::path& out_dir, bool resume) : dir_(out_dir) {
+  std::filesystem::create_directories(dir_);
+  log_.open(dir_ / "log.jsonl", resume ? std::ios::app : std::ios::trunc);
+  if (!log_) throw std::runtime_error("cannot write " + (dir_ / "log.jsonl").string());
+}
+
+void RunWriter::Log(const ImageResult& result) {
+  // One whole line per write, flushed: a reader tailing the log never sees
+  // half a record, and a crash loses none that was reported.
+  log_ << ToJson(result).dump() + "\n" << std::flush;
+}
+
+void RunWriter::WriteModel(const Reconstruction& reconstruction) {
+  WriteColmapModel(reconstruction, dir_ / "sparse");
+  WritePly(reconstruction, dir_ / "points.ply");
+  WriteTumTrajectory(TrajectoryOf(reconstruction), dir_ / "trajectory.txt");
+}
+
+void RunWriter::WriteSummary(const Reconstruction& reconstruction,
+                             const std::vector<ImageResult>& results, int num_input,
+                             const std::vector<std::string>& pending,
+                             double wall_seconds) {
+  int rejected = 0;
+  for (const ImageResult& result : results) rejected += result.status == ImageStatus::kRejected;
+  const nlohmann::json summary = {
+      {"images_in", num_input},
+      {"registered", reconstruction.NumRegisteredImages()},
+      {"rejected", rejected},
+      {"pending", pending},
+      {"points", reconstruction.NumPoints3D()},
+      {"observations", reconstruction.NumObservations()},
+      {"mean_reprojection_error_px", reconstruction.MeanReprojectionError()},
+      {"mean_track_length", reconstruction.MeanTrackLength()},
+      {"wall_seconds", wall_seconds},
+      {"stage_ms", StageTimeStatistics(results)}};
+  WriteFileAtomically(dir_ / "summary.json",
+                      [&](std::ostream& out) { out << summary.dump(2) << "\n"; });
+}
+
+}  // namespace flysfm

@@ -1,0 +1,54 @@
+#include "io/camfi/camfi_http.h"
+
+#include <catch2/catch.hpp>
+
+#include "io/camfi/camfi_emulator.h"
+#include "tests/io/camfi/camfi_fixture.h"
+#include "tests/testing/temp_dir.h"
+
+namespace flysfm {
+namespace {
+
+TEST_CASE("EncodeDevicePath keeps the path one segment") {
+  CHECK(EncodeDevicePath("/store_00010001/DCIM/100CANON/IMG_0001.JPG") ==
+        "%2Fstore_00010001%2FDCIM%2F100CANON%2FIMG_0001.JPG");
+  CHECK(EncodeDevicePath("/a b/c+d~e") == "%2Fa%20b%2Fc%2Bd~e");
+}
+
+TEST_CASE("CamfiHttp sends %2F as is and reports failures") {
+  const std::filesystem::path dir = testing::MakeTempDir("camfi_http");
+  CamfiEmulatorOptions options;
+  options.images = testing::WriteTestJpegs(dir, 1);
+  options.http_port = 0;
+  options.event_port = 0;
+  CamfiEmulator emulator(options);
+  emulator.Shoot();
+  const CamfiHttp http("127.0.0.1", emulator.http_port(), "");
+  const HttpResult raw = http.Get("/raw/" + EncodeDevicePath(emulator.DevicePath(0)), 2);
+  CHECK(raw.status == 200);
+  CHECK(raw.error.empty());
+  CHECK(raw.content_length == (long long)raw.body.size());
+  CHECK(emulator.RequestLog().back() ==
+        "GET /raw/%2Fstore_00010001%2FDCIM%2F100CANON%2FIMG_0001.JPG");
+  CHECK(http.Get("/raw/%2Fno%2Fsuch.JPG", 2).status == 500);
+  CHECK(http.Post("/tether/start", 2).status == 200);
+}
+
+TEST_CASE("CamfiHttp reports a refused connection as an error and no status") {
+  int port = 0;
+  {
+    CamfiEmulatorOptions options;
+    options.http_port = 0;
+    options.event_port = 0;
+    const std::filesystem::path dir = testing::MakeTempDir("camfi_http_refused");
+    options.images = testing::WriteTestJpegs(dir, 1);
+    CamfiEmulator emulator(options);
+    port = emulator.http_port();
+  }
+  const HttpResult result = CamfiHttp("127.0.0.1", port, "").Get("/info", 1);
+  CHECK(result.status == 0);
+  CHECK_FALSE(result.error.empty());
+}
+
+}  // namespace
+}  // namespace flysfm

@@ -1,0 +1,133 @@
+#include "io/run/run_writer.h"
+
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <string>
+
+#include <catch2/catch.hpp>
+#include <nlohmann/json.hpp>
+
+#include "core/engine.h"
+#include "io/formats/colmap_model.h"
+#include "io/synthetic/synthetic_source.h"
+#include "tests/testing/skip.h"
+#include "tests/testing/temp_dir.h"
+
+namespace flysfm {
+namespace {
+
+namespace fs = std::filesystem;
+
+// A real run: the engine on a small rendered capture, finished, written.
+struct WrittenRun {
+  Reconstruction model;
+  fs::path dir;
+};
+
+const WrittenRun& Written() {
+  static const WrittenRun run = [] {
+    SyntheticCaptureOptions options;
+    options.num_views = 8;
+    options.path_length = 1.5;
+    const SyntheticCapture capture = MakeSyntheticCapture(options);
+    Engine engine(Engine::Options(), capture.camera);
+    std::vector<ImageResult> results;
+    for (const Frame& frame : capture.frames) {
+      for (const ImageResult& result : engine.AddImage(frame)) results.push_back(result);
+    }
+    engine.Finish();
+    WrittenRun written{engine.reconstruction(), testing::MakeTempDir("run_writer_test")};
+    RunWriter writer(written.dir);
+    for (const ImageResult& result : results) writer.Log(result);
+    writer.WriteModel(written.model);
+    writer.WriteSummary(written.model, results, int(capture.frames.size()),
+                        engine.PendingImageNames(), 1.0);
+    return written;
+  }();
+  return run;
+}
+
+void CheckSameModel(const Reconstruction& read, const Reconstruction& model) {
+  CHECK(read.NumRegisteredImages() == model.NumRegisteredImages());
+  CHECK(read.NumPoints3D() == model.NumPoints3D());
+  CHECK(read.NumObservations() == model.NumObservations());
+  for (const image_t id : model.RegisteredImageIds()) {
+    const Image& image = model.image(id);
+    const Rigid3d& pose = *image.cam_from_world;
+    const Rigid3d& read_pose = *read.image(id).cam_from_world;
+    CHECK(read.image(id).name == image.name);
+    CHECK(read_pose.rotation.angularDistance(pose.rotation) < 1e-12);
+    CHECK((read_pose.translation - pose.translation).norm() < 1e-12);
+  }
+}
+
+double MeanPointError(const Reconstruction& model) {
+  double sum = 0;
+  for (const auto& [id, point] : model.points3D()) sum += point.error;
+  return sum / double(model.NumPoints3D());
+}
+
+// "Label: value" lines of `colmap model_analyzer` (glog prefixes stripped).
+std::map<std::string, double> AnalyzeWithColmap(const fs::path& model_dir) {
+  const fs::path log = model_dir.parent_path() / (model_dir.filename().string() + ".analyzer");
+  const std::string command =
+      "colmap model_analyzer --path '" + model_dir.string() + "' > '" + log.string() + "' 2>&1";
+  REQUIRE(std::system(command.c_str()) == 0);
+  std::map<std::string, double> figures;
+  std::ifstream in(log);
+  for (std::string line; std::getline(in, line);) {
+    const std::size_t bracket = line.find("] ");
+    if (bracket != std::string::npos) line = line.substr(bracket + 2);
+    const std::size_t colon = line.find(": ");
+    if (colon == std::string::npos) continue;
+    std::istringstream value(line.substr(colon + 2));
+    double number;
+    if (value >> number) figures[line.substr(0, colon)] = number;
+  }
+  return figures;
+}
+
+TEST_CASE("The run's sparse/ model reads back, text and binary, as the engine's model") {
+  const WrittenRun& run = Written();
+  REQUIRE(run.model.NumRegisteredImages() >= 6);
+  CheckSameModel(ReadColmapText(run.dir / "sparse"), run.model);
+  CheckSameModel(ReadColmapBinary(run.dir / "sparse"), run.model);
+  for (const char* file : {"points.ply", "trajectory.txt", "log.jsonl", "summary.json"}) {
+    CHECK(fs::file_size(run.dir / file) > 0);
+  }
+  std::ifstream summary(run.dir / "summary.json");
+  const nlohmann::json json = nlohmann::json::parse(summary);
+  CHECK(json["images_in"].get<int>() == 8);
+  CHECK(json["registered"].get<std::size_t>() == run.model.NumRegisteredImages());
+}
+
+TEST_CASE("colmap model_analyzer reads the run's sparse/ model, binary and text") {
+  if (std::system("command -v colmap > /dev/null 2>&1") != 0) {
+    testing::SkipTest("colmap is not installed (scripts/setup.sh installs it)");
+  }
+  const WrittenRun& run = Written();
+  // sparse/ holds both formats; COLMAP reads the .bin files when present, so
+  // the text files are checked on their own in a copy.
+  const fs::path text_dir = run.dir / "sparse_text";
+  fs::create_directories(text_dir);
+  for (const char* file : {"cameras.txt", "images.txt", "points3D.txt"}) {
+    fs::copy_file(run.dir / "sparse" / file, text_dir / file, fs::copy_options::overwrite_existing);
+  }
+  for (const fs::path& dir : {run.dir / "sparse", text_dir}) {
+    INFO(dir);
+    const std::map<std::string, double> figures = AnalyzeWithColmap(dir);
+    REQUIRE(figures.count("Registered images"));
+    CHECK(figures.at("Cameras") == double(run.model.cameras().size()));
+    CHECK(figures.at("Registered images") == double(run.model.NumRegisteredImages()));
+    CHECK(figures.at("Points") == double(run.model.NumPoints3D()));
+    CHECK(figures.at("Observations") == double(run.model.NumObservations()));
+    // COLMAP's figure is the mean of the points' stored track errors.
+    CHECK(figures.at("Mean reprojection error") == Approx(MeanPointError(run.model)).margin(1e-3));
+  }
+}
+
+}  // namespace
+}  // namespace flysfm
