@@ -14,7 +14,10 @@ endfunction()
 # a sub-folder path: "io/formats" gives io_formats_<name>_test. Files named
 # *_regression_test.cc read the real data sets: label `regression`, and a
 # missing data folder makes them exit 77, which CTest reports as skipped
-# (or fail, with FLYSFM_REQUIRE_DATA=1).
+# (or fail, with FLYSFM_REQUIRE_DATA=1). A file whose stem is in
+# FLYSFM_THREADS_TESTS (tests/CMakeLists.txt) also gets the label `threads`.
+# Each executable joins the build target of each of its labels
+# (<label>_tests), so that a run of one label builds only what it runs.
 function(flysfm_add_module_tests module)
   cmake_parse_arguments(ARG "" "" "DEPS" ${ARGN})
   file(GLOB test_sources CONFIGURE_DEPENDS
@@ -36,9 +39,25 @@ function(flysfm_add_module_tests module)
       set(label unit)
       set(cost 1)
     endif()
+    set(labels ${label})
+    if(stem IN_LIST FLYSFM_THREADS_TESTS)
+      list(APPEND labels threads)
+    endif()
     catch_discover_tests(${target}
       TEST_PREFIX "${module}/${stem}: "
-      PROPERTIES LABELS ${label} SKIP_RETURN_CODE 77 COST ${cost}
+      PROPERTIES SKIP_RETURN_CODE 77 COST ${cost}
       DISCOVERY_TIMEOUT 30)
+    # The labels are set by a CTest include file of our own, read after
+    # discovery's (which defines ${target}_TESTS): the PROPERTIES above would
+    # split a list of labels into separate properties.
+    set(labels_file "${CMAKE_CURRENT_BINARY_DIR}/${target}_labels.cmake")
+    file(WRITE "${labels_file}"
+      "if(${target}_TESTS)\n"
+      "  set_tests_properties(\${${target}_TESTS} PROPERTIES LABELS \"${labels}\")\n"
+      "endif()\n")
+    set_property(DIRECTORY APPEND PROPERTY TEST_INCLUDE_FILES "${labels_file}")
+    foreach(label ${labels})
+      add_dependencies(${label}_tests ${target})
+    endforeach()
   endforeach()
 endfunction()
