@@ -96,8 +96,8 @@ Camera Camera::FromFocal(CameraModelId model_id, double focal, int width,
   camera.params.assign(camera.NumParams(), 0.0);
   const int num_focal = camera.NumFocalParams();
   for (int i = 0; i < num_focal; ++i) camera.params[i] = focal;
-  camera.params[num_focal] = 0.5 * width;
-  camera.params[num_focal + 1] = 0.5 * height;
+  camera.params[num_focal] = 0.5 * (width - 1);
+  camera.params[num_focal + 1] = 0.5 * (height - 1);
   return camera;
 }
 

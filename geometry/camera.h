@@ -24,7 +24,9 @@ struct Camera {
   // expected names), a malformed or non-finite number.
   static Camera FromString(const std::string& text, int width, int height);
   // A pinhole-style camera of the given model with focal length `focal`, the
-  // principal point at the image centre and zero distortion.
+  // principal point at the image centre and zero distortion. Pixel centres
+  // lie at integer coordinates (the top-left pixel's at (0, 0), as in OpenCV
+  // and LSM), so the centre of a w x h image is ((w - 1) / 2, (h - 1) / 2).
   static Camera FromFocal(CameraModelId model_id, double focal, int width,
                           int height);
 

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -53,7 +54,10 @@ std::optional<double> ExifFocalLengthPx(const std::uint8_t* data, std::size_t si
   const std::optional<double> plane_resolution =
       ExifNumber(exif, EXIF_TAG_FOCAL_PLANE_X_RESOLUTION);
   if (positive(focal_35mm)) {
-    focal_px = *focal_35mm / 36.0 * std::max(width, height);
+    // The 35 mm equivalent keeps the field of view along the diagonal (a
+    // 4:3 or 1:1 frame is cropped from the 36 x 24 mm film differently
+    // from a 3:2 one).
+    focal_px = *focal_35mm / std::hypot(36.0, 24.0) * std::hypot(width, height);
   } else if (positive(focal_mm) && positive(plane_resolution)) {
     // Resolution unit: 2 inch (the default), 3 cm, 4 mm, 5 um.
     const std::optional<double> unit = ExifNumber(exif, EXIF_TAG_FOCAL_PLANE_RESOLUTION_UNIT);
@@ -66,6 +70,13 @@ std::optional<double> ExifFocalLengthPx(const std::uint8_t* data, std::size_t si
     focal_px = *focal_mm * (*plane_resolution / unit_mm) * scale;
   }
   exif_data_unref(exif);
+  // A 35 mm equivalent outside 8-2 000 mm (a diagonal field of view of 140
+  // to 1.2 deg) is no lens a photogrammetric survey uses: a corrupt or
+  // misread tag, better replaced by the engine's own guess.
+  if (focal_px) {
+    const double equivalent_mm = *focal_px / std::hypot(width, height) * std::hypot(36.0, 24.0);
+    if (!(equivalent_mm >= 8 && equivalent_mm <= 2000)) focal_px.reset();
+  }
   return focal_px;
 }
 

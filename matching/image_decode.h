@@ -22,8 +22,9 @@ struct DecodedImage {
   // Why decoding failed; empty on success.
   std::string error;
   // The focal length in pixels from a JPEG's EXIF, when it says enough:
-  // FocalLengthIn35mmFilm (scaled from the 36 mm film width to the image's
-  // longer side), else FocalLength with FocalPlaneXResolution.
+  // FocalLengthIn35mmFilm (scaled from the 36 x 24 mm film's diagonal to the
+  // image's), else FocalLength with FocalPlaneXResolution; none when it
+  // would be a 35 mm equivalent outside 8-2 000 mm.
   std::optional<double> exif_focal_length_px;
 
   bool ok() const { return error.empty(); }

@@ -101,7 +101,16 @@ TEST_CASE("Models carry COLMAP's ids, names and parameter counts") {
   CHECK(CameraModelNumParams(CameraModelId::kRadial) == 5);
   CHECK(CameraModelNumParams(CameraModelId::kFullOpenCV) == 12);
   const Camera camera = Camera::FromFocal(CameraModelId::kSimpleRadial, 800, 640, 480);
-  CHECK(camera.ToString() == "SIMPLE_RADIAL 800,320,240,0");
+  CHECK(camera.ToString() == "SIMPLE_RADIAL 800,319.5,239.5,0");
+}
+
+TEST_CASE("FromFocal puts the principal point at the image centre, pixel centres at integers") {
+  // A 4 x 2 image: pixel centres at x = 0..3, y = 0..1; the centre between.
+  const Camera camera = Camera::FromFocal(CameraModelId::kSimpleRadial, 10, 4, 2);
+  CHECK(camera.params[1] == 1.5);
+  CHECK(camera.params[2] == 0.5);
+  // The optical axis meets the image halfway between the middle pixels.
+  CHECK(camera.ImgFromCam(Eigen::Vector3d(0, 0, 1)).isApprox(Eigen::Vector2d(1.5, 0.5)));
 }
 
 }  // namespace

@@ -1,5 +1,6 @@
 #include "matching/image_decode.h"
 
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -129,12 +130,36 @@ std::vector<std::uint8_t> JpegWithExif(const cv::Mat& image,
 
 TEST_CASE("the focal length in pixels comes from a JPEG's EXIF when it says enough") {
   const cv::Mat image = MakeTexture(640, 480, 3);
-  SECTION("35 mm equivalent: scaled from the 36 mm film width to the longer side") {
+  SECTION("35 mm equivalent at 4:3: the same diagonal field of view as on film") {
     const DecodedImage decoded =
         DecodeImageBytes(JpegWithExif(image, {{EXIF_TAG_FOCAL_LENGTH_IN_35MM_FILM, 50}}));
     REQUIRE(decoded.ok());
     REQUIRE(decoded.exif_focal_length_px);
-    CHECK(*decoded.exif_focal_length_px == Approx(50.0 / 36.0 * 640));
+    // 800 px of diagonal for the film's 43.27 mm.
+    CHECK(*decoded.exif_focal_length_px == Approx(50.0 * 800 / std::hypot(36.0, 24.0)));
+  }
+  SECTION("35 mm equivalent at 3:2: the film's width maps to the longer side") {
+    const DecodedImage decoded = DecodeImageBytes(JpegWithExif(
+        MakeTexture(600, 400, 3), {{EXIF_TAG_FOCAL_LENGTH_IN_35MM_FILM, 24}}));
+    REQUIRE(decoded.exif_focal_length_px);
+    CHECK(*decoded.exif_focal_length_px == Approx(24.0 / 36.0 * 600));
+  }
+  SECTION("focal plane resolution in inches, the default unit") {
+    // 35 mm at 4 000 px/inch on a sensor as wide as the image: 5 512 px.
+    const DecodedImage decoded = DecodeImageBytes(
+        JpegWithExif(image, {{EXIF_TAG_FOCAL_LENGTH, 35},
+                             {EXIF_TAG_FOCAL_PLANE_X_RESOLUTION, 4000},
+                             {EXIF_TAG_FOCAL_PLANE_RESOLUTION_UNIT, 2}}));
+    REQUIRE(decoded.exif_focal_length_px);
+    CHECK(*decoded.exif_focal_length_px == Approx(35 * 4000 / 25.4));
+  }
+  SECTION("absurd values give none") {
+    // 1 mm equivalent, and a 5 000 mm one.
+    CHECK_FALSE(DecodeImageBytes(JpegWithExif(image, {{EXIF_TAG_FOCAL_LENGTH_IN_35MM_FILM, 1}}))
+                    .exif_focal_length_px);
+    CHECK_FALSE(
+        DecodeImageBytes(JpegWithExif(image, {{EXIF_TAG_FOCAL_LENGTH_IN_35MM_FILM, 5000}}))
+            .exif_focal_length_px);
   }
   SECTION("focal length in mm and the focal plane's resolution") {
     // 5.8 mm at 2 000 px/cm on a sensor 1 280 px wide, stored at 640: 580 px.
