@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <stdexcept>
 #include <utility>
 
@@ -34,6 +35,14 @@ bool Engine::Options::Check(std::string* problem) const {
       {lsm_images.Check(), "lsm_images"},
       {lsm_images.num_pyramid_levels >= registration.densify.num_pyramid_levels,
        "lsm_images.num_pyramid_levels (>= registration.densify.num_pyramid_levels)"},
+      {lsm_images.template_reach_px >= LsmTemplateReach(verification.lsm) &&
+           lsm_images.template_reach_px >=
+               LsmTemplateReach(registration.densify.lsm) +
+                   std::ceil(registration.densify.window_shift_px),
+       "lsm_images.template_reach_px (>= the LSM template reach plus the densification "
+       "window shift)"},
+      {lsm_images.coarse_template_reach_px >= LsmTemplateReach(registration.densify.lsm),
+       "lsm_images.coarse_template_reach_px (>= the LSM template reach)"},
       {initialization.Check(), "initialization"},
       {registration.Check(), "registration"},
       {triangulation.Check(), "triangulation"},
@@ -111,6 +120,7 @@ PreparedFrame Engine::Prepare(const Frame& frame, const Options& options) {
   start = std::chrono::steady_clock::now();
   prepared.image = std::move(decoded.image);
   prepared.exif_focal_length_px = decoded.exif_focal_length_px;
+  prepared.camera_identity = std::move(decoded.camera_identity);
   cv::cvtColor(prepared.image, prepared.grey, cv::COLOR_BGR2GRAY);
   prepared.features = ExtractFeatures(prepared.image, prepared.grey, options.sift);
   prepared.features_ms = MillisecondsSince(start);
@@ -148,7 +158,7 @@ std::vector<ImageResult> Engine::AddImage(PreparedFrame prepared) {
     }
     image_id = reconstruction_.AddImage(
         prepared.frame.name,
-        CameraFor(prepared.image.cols, prepared.image.rows, prepared.exif_focal_length_px),
+        CameraFor(prepared),
         keypoints);
     lsm_images_.Add(image_id, prepared.grey);
     results[0].image_id = image_id;
@@ -183,6 +193,13 @@ std::vector<ImageResult> Engine::AddImage(PreparedFrame prepared) {
 
   // 11. Each image that registered may let waiting ones register too.
   RetryPending(&results);
+
+  // 12. Images LSM will not search again keep only the windows around their
+  // points that its templates read: memory stays bounded.
+  {
+    ScopedStageTimer timer(&results[0].times.lsm);
+    KeepLsmWindows();
+  }
   if (results[0].status != ImageStatus::kRegistered && results[0].reason.empty()) {
     results[0].reason = "no initial pair yet";
   }
@@ -190,10 +207,12 @@ std::vector<ImageResult> Engine::AddImage(PreparedFrame prepared) {
   return results;
 }
 
-camera_t Engine::CameraFor(int width, int height,
-                           std::optional<double> exif_focal_length_px) {
-  const auto it = camera_by_size_.find({width, height});
-  if (it != camera_by_size_.end()) return it->second;
+camera_t Engine::CameraFor(const PreparedFrame& prepared) {
+  const int width = prepared.image.cols;
+  const int height = prepared.image.rows;
+  const std::tuple<int, int, std::string> key{width, height, prepared.camera_identity};
+  const auto it = camera_by_identity_.find(key);
+  if (it != camera_by_identity_.end()) return it->second;
   Camera camera;
   if (known_camera_) {
     camera = *known_camera_;
@@ -202,11 +221,12 @@ camera_t Engine::CameraFor(int width, int height,
   } else {
     camera = Camera::FromFocal(
         CameraModelId::kSimpleRadial,
-        exif_focal_length_px.value_or(options_.unknown_focal_factor * std::max(width, height)),
+        prepared.exif_focal_length_px.value_or(options_.unknown_focal_factor *
+                                               std::max(width, height)),
         width, height);
   }
   const camera_t camera_id = reconstruction_.AddCamera(camera);
-  camera_by_size_[{width, height}] = camera_id;
+  camera_by_identity_[key] = camera_id;
   return camera_id;
 }
 
@@ -345,6 +365,28 @@ void Engine::RetryPending(std::vector<ImageResult>* results) {
       results->push_back(std::move(attempt));
     }
   }
+}
+
+void Engine::KeepLsmWindows() {
+  const auto keep_windows = [this](image_t image_id) {
+    std::vector<Eigen::Vector2d> points;
+    for (const Point2D& point2D : reconstruction_.image(image_id).points2D) {
+      points.push_back(point2D.xy);
+    }
+    lsm_images_.KeepWindows(image_id, points);
+  };
+  std::vector<image_t> waiting;
+  for (const image_t image_id : lsm_images_.WholeImages()) {
+    if (reconstruction_.image(image_id).IsRegistered()) {
+      keep_windows(image_id);
+    } else {
+      waiting.push_back(image_id);
+    }
+  }
+  // The most recent waiting images stay whole, to be searched when they are
+  // tried again.
+  const int num_whole = options_.lsm_images.max_whole_waiting_images;
+  for (int i = 0; i + num_whole < int(waiting.size()); ++i) keep_windows(waiting[i]);
 }
 
 int Engine::NumRegisteredNeighbours(image_t image_id) const {

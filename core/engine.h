@@ -10,6 +10,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <tuple>
 #include <unordered_map>
 #include <vector>
 
@@ -41,6 +42,7 @@ struct PreparedFrame {
   cv::Mat grey;
   std::string error;  // why decoding failed; empty on success
   std::optional<double> exif_focal_length_px;
+  std::string camera_identity;  // body, lens and zoom from the EXIF
   FeatureSet features;
   double decode_ms = 0;
   double features_ms = 0;
@@ -125,14 +127,17 @@ class Engine {
 
   const Options& options() const { return options_; }
   const Reconstruction& reconstruction() const { return reconstruction_; }
+  // What LSM keeps of the images (its memory, for benchmarks and tests).
+  const LsmImageStore& lsm_images() const { return lsm_images_; }
   std::vector<std::string> PendingImageNames() const;
   int num_rejected() const { return num_rejected_; }
   bool initialized() const { return initialized_; }
 
  private:
-  // The camera shared by the images of this size; created with the first
-  // one (and its EXIF focal length, when intrinsics are unknown).
-  camera_t CameraFor(int width, int height, std::optional<double> exif_focal_length_px);
+  // The camera shared by the images of this size and camera identity (body,
+  // lens, zoom setting, as the EXIF tells them); created with the first one
+  // (and its EXIF focal length, when intrinsics are unknown).
+  camera_t CameraFor(const PreparedFrame& prepared);
   // Steps 4-5 for every candidate: the verified matches go to the match
   // store, LSM-refined keypoints into the model, and (until the model
   // exists) the pairs' geometry to the initializer.
@@ -148,6 +153,8 @@ class Engine {
   // any registers; each that does gets its result appended to `results`
   // (results[0], the new image, reports its own registration in place).
   void RetryPending(std::vector<ImageResult>* results);
+  // Step 12: the images LSM will not search again keep only windows.
+  void KeepLsmWindows();
   int NumRegisteredNeighbours(image_t image_id) const;
   std::vector<int> RetrievalNeighbours(image_t image_id, int n) const;
   ImageResult ResultFor(image_t image_id) const;
@@ -166,7 +173,7 @@ class Engine {
   PendingPool pending_;
   // What matching and colouring need of each image seen.
   std::unordered_map<image_t, FeatureSet> features_;
-  std::map<std::pair<int, int>, camera_t> camera_by_size_;
+  std::map<std::tuple<int, int, std::string>, camera_t> camera_by_identity_;
   bool initialized_ = false;
   int num_rejected_ = 0;
 };

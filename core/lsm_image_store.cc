@@ -1,11 +1,37 @@
 #include "core/lsm_image_store.h"
 
+#include <algorithm>
+#include <cmath>
+#include <cstring>
 #include <stdexcept>
 
+#include <opencv2/imgproc.hpp>
+
 namespace flysfm {
+namespace {
+
+// The pixels of `level` within `reach` of the pixel nearest to the
+// full-resolution `point`, cut at the image's border.
+cv::Rect WindowRect(int level, const Eigen::Vector2d& point, int reach, int width,
+                    int height) {
+  const double scale = 1.0 / (1 << level);
+  const double x = std::round(scale * point.x());
+  const double y = std::round(scale * point.y());
+  if (!(std::abs(x) < 1e9 && std::abs(y) < 1e9)) return {};
+  const int x0 = std::max(0, int(x) - reach);
+  const int y0 = std::max(0, int(y) - reach);
+  const int x1 = std::min(width - 1, int(x) + reach);
+  const int y1 = std::min(height - 1, int(y) + reach);
+  if (x1 < x0 || y1 < y0) return {};
+  return {x0, y0, x1 - x0 + 1, y1 - y0 + 1};
+}
+
+}  // namespace
 
 bool LsmImageStore::Options::Check() const {
-  return num_pyramid_levels >= 1 && cache_megabytes >= 0;
+  return num_pyramid_levels >= 1 && num_pyramid_levels <= 8 && template_reach_px >= 1 &&
+         coarse_template_reach_px >= 1 && window_budget_megabytes >= 0 &&
+         max_whole_waiting_images >= 0;
 }
 
 LsmImageStore::LsmImageStore(const Options& options) : options_(options) {
@@ -13,31 +39,146 @@ LsmImageStore::LsmImageStore(const Options& options) : options_(options) {
 }
 
 void LsmImageStore::Add(image_t image_id, cv::Mat grey) {
-  greys_[image_id] = std::move(grey);
+  Entry entry;
+  entry.arrival = next_arrival_++;
+  entry.levels.resize(options_.num_pyramid_levels);
+  entry.levels[0].whole = std::move(grey);
+  for (int l = 0; l < options_.num_pyramid_levels; ++l) {
+    Level& level = entry.levels[l];
+    if (l > 0) cv::pyrDown(entry.levels[l - 1].whole, level.whole);
+    level.width = level.whole.cols;
+    level.height = level.whole.rows;
+  }
+  entries_[image_id] = std::move(entry);
 }
 
-std::vector<LsmImage> LsmImageStore::Pyramid(image_t image_id) {
-  const auto it = pyramids_.find(image_id);
-  if (it != pyramids_.end()) {
-    recency_.splice(recency_.begin(), recency_, it->second.recency);
-    return it->second.levels;
+void LsmImageStore::KeepWindows(image_t image_id, const std::vector<Eigen::Vector2d>& points) {
+  Entry& entry = entries_.at(image_id);
+  if (!entry.whole) return;
+  for (int l = 0; l < int(entry.levels.size()); ++l) {
+    Level& level = entry.levels[l];
+    const int reach = l == 0 ? options_.template_reach_px : options_.coarse_template_reach_px;
+    level.tiles_x = (level.width + kTile - 1) / kTile;
+    const int tiles_y = (level.height + kTile - 1) / kTile;
+    level.offsets.assign(std::size_t(level.tiles_x) * tiles_y, -1);
+    std::int64_t num_tiles = 0;
+    for (const Eigen::Vector2d& point : points) {
+      const cv::Rect rect = WindowRect(l, point, reach, level.width, level.height);
+      if (rect.empty()) continue;
+      for (int ty = rect.y / kTile; ty <= (rect.y + rect.height - 1) / kTile; ++ty) {
+        for (int tx = rect.x / kTile; tx <= (rect.x + rect.width - 1) / kTile; ++tx) {
+          std::int64_t& offset = level.offsets[std::size_t(ty) * level.tiles_x + tx];
+          if (offset < 0) offset = kTile * kTile * num_tiles++;
+        }
+      }
+    }
+    // Tiles at the right and bottom borders are padded; the padding is never
+    // read (windows are cut at the border).
+    level.tiles.assign(std::size_t(num_tiles) * kTile * kTile, 0);
+    for (int ty = 0; ty < tiles_y; ++ty) {
+      for (int tx = 0; tx < level.tiles_x; ++tx) {
+        const std::int64_t offset = level.offsets[std::size_t(ty) * level.tiles_x + tx];
+        if (offset < 0) continue;
+        const int cols = std::min(kTile, level.width - tx * kTile);
+        const int rows = std::min(kTile, level.height - ty * kTile);
+        for (int r = 0; r < rows; ++r) {
+          std::memcpy(&level.tiles[offset + r * kTile],
+                      level.whole.ptr<std::uint8_t>(ty * kTile + r) + tx * kTile, cols);
+        }
+      }
+    }
+    level.whole.release();
+    entry.bytes += level.tiles.size() + level.offsets.size() * sizeof(std::int64_t);
   }
-  CachedPyramid pyramid;
-  pyramid.levels = BuildLsmPyramid(greys_.at(image_id), options_.num_pyramid_levels);
-  for (const LsmImage& level : pyramid.levels) pyramid.bytes += level.ByteSize();
+  entry.whole = false;
+  if (search_image_id_ == image_id) {
+    search_image_id_ = kInvalidImageId;
+    search_pyramid_.clear();
+  }
   recency_.push_front(image_id);
-  pyramid.recency = recency_.begin();
-  cache_bytes_ += pyramid.bytes;
-  std::vector<LsmImage> levels = pyramid.levels;
-  pyramids_.emplace(image_id, std::move(pyramid));
-  const std::size_t budget = std::size_t(options_.cache_megabytes) << 20;
-  while (cache_bytes_ > budget && recency_.size() > 1) {
-    const auto evicted = pyramids_.find(recency_.back());
-    cache_bytes_ -= evicted->second.bytes;
-    pyramids_.erase(evicted);
+  entry.recency = recency_.begin();
+  window_bytes_ += entry.bytes;
+  const std::size_t budget = std::size_t(options_.window_budget_megabytes) << 20;
+  while (window_bytes_ > budget && !recency_.empty()) {
+    const auto evicted = entries_.find(recency_.back());
+    window_bytes_ -= evicted->second.bytes;
+    entries_.erase(evicted);
     recency_.pop_back();
   }
-  return levels;
+}
+
+bool LsmImageStore::IsWhole(image_t image_id) const {
+  const auto it = entries_.find(image_id);
+  return it != entries_.end() && it->second.whole;
+}
+
+bool LsmImageStore::HasPixels(image_t image_id) const {
+  return entries_.count(image_id) > 0;
+}
+
+std::vector<image_t> LsmImageStore::WholeImages() const {
+  std::vector<std::pair<std::uint64_t, image_t>> whole;
+  for (const auto& [image_id, entry] : entries_) {
+    if (entry.whole) whole.emplace_back(entry.arrival, image_id);
+  }
+  std::sort(whole.begin(), whole.end());
+  std::vector<image_t> ids;
+  for (const auto& [arrival, image_id] : whole) ids.push_back(image_id);
+  return ids;
+}
+
+std::vector<LsmImage> LsmImageStore::SearchPyramid(image_t image_id) {
+  if (image_id != search_image_id_) {
+    const Entry& entry = entries_.at(image_id);
+    if (!entry.whole) return {};
+    search_pyramid_ = BuildLsmPyramid(entry.levels[0].whole, options_.num_pyramid_levels);
+    search_image_id_ = image_id;
+  }
+  return search_pyramid_;
+}
+
+cv::Mat LsmImageStore::CutFromTiles(const Level& level, const cv::Rect& rect) {
+  cv::Mat window(rect.height, rect.width, CV_8U);
+  for (int y = rect.y; y < rect.y + rect.height; ++y) {
+    std::uint8_t* out = window.ptr<std::uint8_t>(y - rect.y);
+    for (int x = rect.x; x < rect.x + rect.width;) {
+      const int tx = x / kTile;
+      const std::int64_t offset = level.offsets[std::size_t(y / kTile) * level.tiles_x + tx];
+      if (offset < 0) return {};
+      const int end = std::min(rect.x + rect.width, (tx + 1) * kTile);
+      std::memcpy(out + (x - rect.x), &level.tiles[offset + (y % kTile) * kTile + x % kTile],
+                  end - x);
+      x = end;
+    }
+  }
+  return window;
+}
+
+LsmImage LsmImageStore::Window(image_t image_id, int level_index,
+                               const Eigen::Vector2d& point, int reach) {
+  const auto it = entries_.find(image_id);
+  if (it == entries_.end() || level_index < 0 || level_index >= int(it->second.levels.size())) {
+    return {};
+  }
+  Entry& entry = it->second;
+  const Level& level = entry.levels[level_index];
+  const cv::Rect rect = WindowRect(level_index, point, reach, level.width, level.height);
+  if (rect.empty()) return {};
+  if (entry.whole) return LsmImage(level.whole(rect), rect.x, rect.y);
+  recency_.splice(recency_.begin(), recency_, entry.recency);
+  const cv::Mat window = CutFromTiles(level, rect);
+  if (window.empty()) return {};
+  return LsmImage(window, rect.x, rect.y);
+}
+
+std::size_t LsmImageStore::whole_bytes() const {
+  std::size_t bytes = 0;
+  for (const auto& [image_id, entry] : entries_) {
+    if (!entry.whole) continue;
+    for (const Level& level : entry.levels) bytes += level.whole.total();
+  }
+  for (const LsmImage& level : search_pyramid_) bytes += level.ByteSize();
+  return bytes;
 }
 
 }  // namespace flysfm

@@ -1,18 +1,30 @@
 #pragma once
 
-// What LSM needs of the images it has seen: each image's grey pixels and,
-// built on demand, its LSM pyramid (refinement reads level 0, densification
-// every level). Pyramids are kept, most recently used first, within a byte
-// budget: a new image meets mostly recent ones.
+// What LSM needs of the images it has seen, within a bounded memory whatever
+// the length of the session (docs/engine.md, "Memory"):
+// - an image LSM may still search (the new image; a waiting image, which may
+//   register later with densification) is kept whole, in 8-bit grey with its
+//   8-bit pyramid, and its float LSM pyramid is built when it is searched;
+// - any other image only ever gives LSM templates, at its own 2D points:
+//   refinement reads level 0 at its keypoints, densification every level at
+//   its observations. Of such an image only 8-bit tiles covering windows
+//   around its 2D points are kept, on every pyramid level, and a template is
+//   cut from them when needed (an LsmImage with an origin).
+// The tiles are kept within a byte budget, the least recently used image's
+// dropped first; an image whose tiles were dropped takes no part in LSM any
+// more (its pairs stay unrefined; it is no densification reference).
 
 #include <cstddef>
+#include <cstdint>
 #include <list>
 #include <unordered_map>
 #include <vector>
 
+#include <Eigen/Core>
 #include <opencv2/core.hpp>
 
 #include "geometry/types.h"
+#include "lsm/densify.h"
 #include "lsm/lsm.h"
 
 namespace flysfm {
@@ -20,37 +32,88 @@ namespace flysfm {
 class LsmImageStore {
  public:
   struct Options {
-    // Pyramid levels built per image (densification's coarse-to-fine levels;
+    // Pyramid levels kept per image (densification's coarse-to-fine levels;
     // DensifyOptions::num_pyramid_levels at the least).
     int num_pyramid_levels = 3;
-    // Budget of the cached pyramids; the grey images are not counted.
-    int cache_megabytes = 512;
+    // Pixels kept around each 2D point of an older image on level 0: a
+    // template's reach (LsmTemplateReach) plus the shift of densification's
+    // shifted windows.
+    int template_reach_px =
+        LsmTemplateReach(LsmOptions()) + static_cast<int>(DensifyOptions().window_shift_px + 0.5);
+    // The same on the coarser levels, where windows are not shifted.
+    int coarse_template_reach_px = LsmTemplateReach(LsmOptions());
+    // Budget of the tiles kept of older images. A 6 MP photo's 1 500
+    // keypoints cover most of it (about 8 MB on three levels), a 24 MP
+    // photo's about a third: 1 GB keeps the templates of the last 100-150
+    // photos used, which retrieval's candidates mostly are.
+    int window_budget_megabytes = 1024;
+    // Waiting images kept whole beyond the new one, the most recent first;
+    // an older waiting image keeps only windows and, if it registers later,
+    // registers without densification. Bounds the memory of a session that
+    // cannot initialise or leaves many images waiting.
+    int max_whole_waiting_images = 8;
 
     bool Check() const;
   };
 
   explicit LsmImageStore(const Options& options);
 
+  // Keeps the image whole.
   void Add(image_t image_id, cv::Mat grey);
-  // The image's pyramid, built and cached on first use. The levels share
-  // pixels with the cache (cv::Mat), so the copy is cheap and outlives an
-  // eviction.
-  std::vector<LsmImage> Pyramid(image_t image_id);
+  // Keeps only the tiles covering windows around `points` (full-resolution
+  // positions) and drops the whole image; the budget may then drop other
+  // images' tiles.
+  void KeepWindows(image_t image_id, const std::vector<Eigen::Vector2d>& points);
 
-  std::size_t cache_bytes() const { return cache_bytes_; }
+  bool IsWhole(image_t image_id) const;
+  // Whether the image still gives LSM templates (whole, or its tiles kept).
+  bool HasPixels(image_t image_id) const;
+  // The whole images, in the order they were added.
+  std::vector<image_t> WholeImages() const;
+
+  // A whole image's float LSM pyramid, to search in. The last one built is
+  // kept: refinement and densification search the new image in one call.
+  std::vector<LsmImage> SearchPyramid(image_t image_id);
+  // The window of pyramid `level` around the full-resolution `point`,
+  // `reach` pixels of that level around the pixel nearest to it (cut at the
+  // image's border); empty when the image no longer has those pixels.
+  LsmImage Window(image_t image_id, int level, const Eigen::Vector2d& point, int reach);
+
+  // Bytes held: tiles of older images, and whole images (8-bit pyramids
+  // and the search pyramid).
+  std::size_t window_bytes() const { return window_bytes_; }
+  std::size_t whole_bytes() const;
 
  private:
-  struct CachedPyramid {
-    std::vector<LsmImage> levels;
-    std::list<image_t>::iterator recency;
-    std::size_t bytes = 0;
+  struct Level {
+    int width = 0;
+    int height = 0;
+    cv::Mat whole;  // CV_8U, while the image is whole
+    // Tiles of kTile x kTile pixels: tile (tx, ty) at tiles[offset[ty * tiles_x + tx]], or
+    // none where the offset is -1.
+    int tiles_x = 0;
+    std::vector<std::int64_t> offsets;
+    std::vector<std::uint8_t> tiles;
   };
+  struct Entry {
+    std::vector<Level> levels;
+    std::uint64_t arrival = 0;
+    bool whole = true;
+    std::size_t bytes = 0;  // of the tiles
+    std::list<image_t>::iterator recency;  // among images kept as tiles
+  };
+  static constexpr int kTile = 16;
+
+  // Cuts a window from the tiles; empty when one is missing.
+  static cv::Mat CutFromTiles(const Level& level, const cv::Rect& rect);
 
   Options options_;
-  std::unordered_map<image_t, cv::Mat> greys_;
-  std::unordered_map<image_t, CachedPyramid> pyramids_;
+  std::unordered_map<image_t, Entry> entries_;
+  std::uint64_t next_arrival_ = 0;
   std::list<image_t> recency_;  // most recently used first
-  std::size_t cache_bytes_ = 0;
+  std::size_t window_bytes_ = 0;
+  image_t search_image_id_ = kInvalidImageId;
+  std::vector<LsmImage> search_pyramid_;
 };
 
 }  // namespace flysfm

@@ -55,22 +55,25 @@ PairVerification PairVerifier::Verify(image_t image_id, const FeatureDescriptors
 
   // LSM refines the new image's keypoint on the candidate's window; a match
   // that does not converge is an outlier.
-  if (options_.lsm_refinement && !verified.empty()) {
+  // An image whose pixels the store dropped leaves the pair unrefined.
+  if (options_.lsm_refinement && !verified.empty() && lsm_images_->HasPixels(other_id)) {
     ScopedStageTimer timer(&times->lsm);
     std::vector<Eigen::Vector2d> other_points, points;
+    std::vector<LsmImage> templates;
     std::vector<int> to_refine;
+    const int reach = LsmTemplateReach(options_.lsm);
     for (int i = 0; i < int(verified.size()); ++i) {
       if (lsm_refined[verified[i].idx1]) continue;
       to_refine.push_back(i);
       other_points.push_back(other.points2D[verified[i].idx2].xy);
       points.push_back(image.points2D[verified[i].idx1].xy);
+      templates.push_back(lsm_images_->Window(other_id, 0, other_points.back(), reach));
     }
     std::vector<char> keep(verified.size(), 1);
     if (!to_refine.empty()) {
       const RefineMatchesResult refined =
-          RefineMatches(lsm_images_->Pyramid(other_id).front(),
-                        lsm_images_->Pyramid(image_id).front(), other_points, points,
-                        options_.lsm);
+          RefineMatches(templates, lsm_images_->SearchPyramid(image_id).front(), other_points,
+                        points, options_.lsm);
       for (const int i : to_refine) keep[i] = 0;
       for (const int k : refined.inliers) {
         const int i = to_refine[k];

@@ -1,6 +1,7 @@
 #include "core/registration.h"
 
 #include <algorithm>
+#include <cmath>
 #include <map>
 #include <stdexcept>
 #include <unordered_map>
@@ -120,14 +121,29 @@ Registrar::Result Registrar::Register(image_t image_id, StageTimes* times) {
 std::vector<Correspondence2D3D> Registrar::Densify(
     image_t image_id, const Rigid3d& cam_from_world,
     const std::vector<Correspondence2D3D>& correspondences) {
-  const auto view_of = [&](image_t id, const Rigid3d& pose) {
-    return LsmView{lsm_images_->Pyramid(id),
-                   reconstruction_->camera(reconstruction_->image(id).camera_id), pose};
+  // The image is searched whole; a waiting image kept only as windows
+  // registers without densification.
+  LsmView image{lsm_images_->SearchPyramid(image_id),
+                reconstruction_->camera(reconstruction_->image(image_id).camera_id),
+                cam_from_world, nullptr};
+  if (image.pyramid.empty()) return {};
+  // A reference gives templates from the windows the store keeps around its
+  // points.
+  const int reach = LsmTemplateReach(options_.densify.lsm);
+  const int shifted_reach = reach + int(std::ceil(options_.densify.window_shift_px));
+  const auto reference_view = [&](image_t id) {
+    LsmImageStore* store = lsm_images_;
+    return LsmView{{},
+                   reconstruction_->camera(reconstruction_->image(id).camera_id),
+                   *reconstruction_->image(id).cam_from_world,
+                   [store, id, reach, shifted_reach](int level, const Eigen::Vector2d& point) {
+                     return store->Window(id, level, point, level == 0 ? shifted_reach : reach);
+                   }};
   };
   // References: the registered neighbours sharing the most verified matches.
   std::vector<std::pair<std::size_t, image_t>> neighbours;
   for (const image_t other_id : matches_->Neighbours(image_id)) {
-    if (reconstruction_->image(other_id).IsRegistered()) {
+    if (reconstruction_->image(other_id).IsRegistered() && lsm_images_->HasPixels(other_id)) {
       neighbours.emplace_back(matches_->NumMatches(image_id, other_id), other_id);
     }
   }
@@ -137,7 +153,7 @@ std::vector<Correspondence2D3D> Registrar::Densify(
   std::unordered_map<image_t, int> view_index;
   for (const auto& [count, id] : neighbours) {
     view_index[id] = int(references.size());
-    references.push_back(view_of(id, *reconstruction_->image(id).cam_from_world));
+    references.push_back(reference_view(id));
   }
 
   // Candidates: the references' points without a correspondence here yet,
@@ -176,8 +192,8 @@ std::vector<Correspondence2D3D> Registrar::Densify(
     candidates.push_back(std::move(candidate));
   }
 
-  const DensifyResult densified = flysfm::Densify(view_of(image_id, cam_from_world),
-                                                  references, candidates, options_.densify);
+  const DensifyResult densified =
+      flysfm::Densify(image, references, candidates, options_.densify);
   std::vector<Correspondence2D3D> added;
   added.reserve(densified.matches.size());
   for (const DensifyMatch& match : densified.matches) {

@@ -22,8 +22,8 @@ std::vector<int> ObservationsByDirection(const DensifyCandidate& candidate,
     const LsmView& reference = references[candidate.observations[i].view];
     const Eigen::Vector2d& point = candidate.observations[i].point2D;
     if (!(point.x() >= margin && point.y() >= margin &&
-          point.x() <= reference.pyramid[0].width() - 1 - margin &&
-          point.y() <= reference.pyramid[0].height() - 1 - margin)) {
+          point.x() <= reference.camera.width - 1 - margin &&
+          point.y() <= reference.camera.height - 1 - margin)) {
       continue;
     }
     const Eigen::Vector3d ray =
@@ -155,7 +155,9 @@ DensifyResult Densify(const LsmView& image,
     }
   };
   check_pyramid(image);
-  for (const LsmView& reference : references) check_pyramid(reference);
+  for (const LsmView& reference : references) {
+    if (!reference.window) check_pyramid(reference);
+  }
 
   // Coarse levels: same window and tests, the shift bound scaled to the
   // level's pixels.
@@ -240,7 +242,8 @@ DensifyResult Densify(const LsmView& image,
     for (int level = options.num_pyramid_levels - 1; level >= 1; --level) {
       const double scale = 1.0 / (1 << level);
       const LsmResult coarse = coarse_matchers[level - 1].Match(
-          reference.pyramid[level], scale * observation.point2D,
+          reference.Template(level, observation.point2D),
+          scale * observation.point2D,
           image.pyramid[level], scale * estimate, coarse_affine);
       found = coarse.Converged();
       if (found) {
@@ -284,7 +287,7 @@ DensifyResult Densify(const LsmView& image,
     const DensifyCandidate& candidate = candidates[attempts[a].candidate];
     const DensifyObservation& observation =
         candidate.observations[attempts[a].observations[rank]];
-    return matcher.Match(references[observation.view].pyramid[0],
+    return matcher.Match(references[observation.view].Template(0, observation.point2D),
                          observation.point2D, image.pyramid[0], starts[a],
                          start_affine(candidate, observation), window_offset);
   };

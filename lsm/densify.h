@@ -7,6 +7,7 @@
 // docs/lsm.md). Accepted results are new 2D-3D correspondences for the pose
 // re-estimation.
 
+#include <functional>
 #include <vector>
 
 #include <Eigen/Core>
@@ -21,10 +22,23 @@ namespace flysfm {
 // at least DensifyOptions::num_pyramid_levels levels), camera and pose.
 // 2D positions are the camera's pixel coordinates, which must follow
 // OpenCV's convention (pixel (c, r) shows image point (c, r)), as LSM does.
+// A reference may instead be kept as windows around its points
+// (core/lsm_image_store): `window` then gives the one a template needs, and
+// `pyramid` stays empty.
 struct LsmView {
   std::vector<LsmImage> pyramid;
   Camera camera;
   Rigid3d cam_from_world;
+  // The window on pyramid `level` around the full-resolution `point` (an
+  // LsmImage with an origin, in that level's pixels), holding at least
+  // LsmTemplateReach pixels around it, and DensifyOptions::window_shift_px
+  // more on level 0; empty when the view has no pixels there.
+  std::function<LsmImage(int level, const Eigen::Vector2d& point)> window;
+
+  // The image that holds the template around `point` on `level`.
+  LsmImage Template(int level, const Eigen::Vector2d& point) const {
+    return pyramid.empty() ? window(level, point) : pyramid[level];
+  }
 };
 
 struct DensifyObservation {

@@ -156,7 +156,8 @@ void MeanAndStddev(const Eigen::Ref<const Eigen::VectorXf>& values,
 
 }  // namespace
 
-LsmImage::LsmImage(const cv::Mat& grey) {
+LsmImage::LsmImage(const cv::Mat& grey, int origin_x, int origin_y)
+    : origin_x_(origin_x), origin_y_(origin_y) {
   if (grey.empty() || grey.channels() != 1 ||
       (grey.depth() != CV_8U && grey.depth() != CV_32F)) {
     throw std::invalid_argument(
@@ -181,6 +182,7 @@ void LsmImage::ComputeSplineCoefficients() {
 }
 
 LsmImage LsmImage::HalfResolution() const {
+  FLYSFM_CHECK(origin_x_ == 0 && origin_y_ == 0);
   LsmImage half;
   cv::pyrDown(pixels_, half.pixels_);
   half.ComputeSplineCoefficients();
@@ -198,6 +200,11 @@ std::vector<LsmImage> BuildLsmPyramid(const cv::Mat& grey, int num_levels) {
     levels.push_back(levels.back().HalfResolution());
   }
   return levels;
+}
+
+int LsmTemplateReach(const LsmOptions& options) {
+  constexpr int kSplineContext = 6;
+  return options.window_size / 2 + 1 + kSplineContext;
 }
 
 bool LsmOptions::Check() const {
@@ -325,8 +332,12 @@ LsmResult LsmMatcher::Match(const LsmImage& image1,
   // The template is read at whole pixels around the anchor, so that it is
   // not smoothed by interpolation; the affine map carries point1's offset
   // from the anchor into image 2.
+  // Positions in each image's own pixels (a window's differ by its origin).
+  const Eigen::Vector2d origin2(image2.origin_x(), image2.origin_y());
+  const Eigen::Vector2d local1 =
+      point1 - Eigen::Vector2d(image1.origin_x(), image1.origin_y());
   const int reach = radius_ + 1;
-  const Eigen::Vector2d center1 = point1 + window_offset;
+  const Eigen::Vector2d center1 = local1 + window_offset;
   if (!(center1.x() >= reach - 0.5 && center1.y() >= reach - 0.5 &&
         center1.x() < image1.width() - reach - 0.5 &&
         center1.y() < image1.height() - reach - 0.5)) {
@@ -335,7 +346,7 @@ LsmResult LsmMatcher::Match(const LsmImage& image1,
   }
   const int anchor_x = static_cast<int>(std::lround(center1.x()));
   const int anchor_y = static_cast<int>(std::lround(center1.y()));
-  const Eigen::Vector2d offset1 = point1 - Eigen::Vector2d(anchor_x, anchor_y);
+  const Eigen::Vector2d offset1 = local1 - Eigen::Vector2d(anchor_x, anchor_y);
 
   const int stride = options_.window_size + 2;
   const float* pixels = image1.data();
@@ -424,7 +435,7 @@ LsmResult LsmMatcher::Match(const LsmImage& image1,
 
   Warp warp;
   warp.linear = affine;
-  warp.translation = point2 - affine * offset1;
+  warp.translation = point2 - origin2 - affine * offset1;
   int buffer = 0;
   if (!Sample(image2, warp, buffer)) {
     result.status = LsmStatus::kOutsideImage;
@@ -531,7 +542,7 @@ LsmResult LsmMatcher::Match(const LsmImage& image1,
   }
 
   result.affine = warp.linear;
-  result.point2 = warp.Map(offset1);
+  result.point2 = warp.Map(offset1) + origin2;
   result.h0 = -warp.offset / warp.gain;
   result.h1 = 1.0 / warp.gain;
   result.ncc = NormalizedCrossCorrelation(template_, warped_[buffer]);

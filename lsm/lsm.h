@@ -28,15 +28,23 @@ namespace flysfm {
 // A grey image prepared for LSM: float, continuous, grey levels on the 8-bit
 // scale (thresholds in LsmOptions are in those units). Convert each image once
 // and match many points against it.
+//
+// It may also be a window of a larger image (core/lsm_image_store keeps only
+// windows around the points of older images): its pixel (0, 0) is then the
+// larger image's pixel `origin`, and positions given to and returned by LSM
+// stay in the larger image's coordinates.
 class LsmImage {
  public:
   LsmImage() = default;
   // Accepts a one-channel CV_8U or CV_32F image (CV_32F is taken as grey
   // levels on the 0..255 scale). Throws std::invalid_argument otherwise.
-  explicit LsmImage(const cv::Mat& grey);
+  explicit LsmImage(const cv::Mat& grey, int origin_x = 0, int origin_y = 0);
 
   int width() const { return pixels_.cols; }
   int height() const { return pixels_.rows; }
+  int origin_x() const { return origin_x_; }
+  int origin_y() const { return origin_y_; }
+  bool empty() const { return pixels_.empty(); }
   const float* data() const { return pixels_.ptr<float>(); }
   const cv::Mat& pixels() const { return pixels_; }
   // Cubic B-spline coefficients of the pixels, same layout.
@@ -47,7 +55,7 @@ class LsmImage {
   }
 
   // The image at half resolution (Gaussian 5x5, cv::pyrDown): a point (x, y)
-  // here lies at (x / 2, y / 2) there.
+  // here lies at (x / 2, y / 2) there. Whole images only (origin 0).
   LsmImage HalfResolution() const;
 
  private:
@@ -55,6 +63,8 @@ class LsmImage {
 
   cv::Mat pixels_;  // CV_32FC1, continuous
   cv::Mat spline_;  // CV_32FC1, continuous
+  int origin_x_ = 0;
+  int origin_y_ = 0;
 };
 
 // `num_levels` images, level 0 the input, each next one at half resolution.
@@ -119,6 +129,14 @@ struct LsmOptions {
 
   bool Check() const;
 };
+
+// Pixels around a template window's centre pixel that a window of an image
+// must hold for LSM to match there as on the whole image: the window and the
+// one-pixel border its gradients read, plus the context after which the cubic
+// spline prefilter of a crop agrees with the whole image's (its boundary's
+// influence decays by 2 - sqrt(3) = 0.27 a pixel: below 4e-4 of a grey-level
+// step after 6 pixels).
+int LsmTemplateReach(const LsmOptions& options);
 
 enum class LsmStatus : int {
   kConverged = 0,

@@ -32,6 +32,15 @@ RefineMatchesResult RefineMatches(const LsmImage& image1,
                                   const std::vector<Eigen::Vector2d>& points2,
                                   const LsmOptions& options = LsmOptions());
 
+// The same with image 1 kept only as windows (LsmImage with an origin):
+// windows1[i] holds points1[i]'s template, at least LsmTemplateReach pixels
+// around it. Throws std::invalid_argument when the lists differ in size.
+RefineMatchesResult RefineMatches(const std::vector<LsmImage>& windows1,
+                                  const LsmImage& image2,
+                                  const std::vector<Eigen::Vector2d>& points1,
+                                  const std::vector<Eigen::Vector2d>& points2,
+                                  const LsmOptions& options = LsmOptions());
+
 // The same on grey images (CV_8U or CV_32F), each converted once.
 RefineMatchesResult RefineMatches(const cv::Mat& image1, const cv::Mat& image2,
                                   const std::vector<Eigen::Vector2d>& points1,

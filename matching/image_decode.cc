@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -42,10 +43,7 @@ std::optional<double> ExifNumber(ExifData* exif, ExifTag tag) {
   }
 }
 
-std::optional<double> ExifFocalLengthPx(const std::uint8_t* data, std::size_t size,
-                                        int width, int height) {
-  ExifData* exif = exif_data_new_from_data(data, static_cast<unsigned int>(size));
-  if (exif == nullptr) return std::nullopt;
+std::optional<double> ExifFocalLengthPx(ExifData* exif, int width, int height) {
   std::optional<double> focal_px;
   const auto positive = [](std::optional<double> v) { return v && *v > 0; };
   const std::optional<double> focal_35mm =
@@ -69,7 +67,6 @@ std::optional<double> ExifFocalLengthPx(const std::uint8_t* data, std::size_t si
     const double scale = positive(sensor_width_px) ? width / *sensor_width_px : 1.0;
     focal_px = *focal_mm * (*plane_resolution / unit_mm) * scale;
   }
-  exif_data_unref(exif);
   // A 35 mm equivalent outside 8-2 000 mm (a diagonal field of view of 140
   // to 1.2 deg) is no lens a photogrammetric survey uses: a corrupt or
   // misread tag, better replaced by the engine's own guess.
@@ -78,6 +75,37 @@ std::optional<double> ExifFocalLengthPx(const std::uint8_t* data, std::size_t si
     if (!(equivalent_mm >= 8 && equivalent_mm <= 2000)) focal_px.reset();
   }
   return focal_px;
+}
+
+// An EXIF text tag as printable ASCII of at most 40 characters (the
+// longest real camera and lens names are about 30): the text is the
+// camera's, hostile at worst.
+std::string ExifText(ExifData* exif, ExifTag tag) {
+  ExifEntry* entry = exif_data_get_entry(exif, tag);
+  if (entry == nullptr || entry->format != EXIF_FORMAT_ASCII || entry->data == nullptr) {
+    return {};
+  }
+  std::string text;
+  for (unsigned int i = 0; i < entry->size && entry->data[i] != 0 && text.size() < 40; ++i) {
+    const unsigned char c = entry->data[i];
+    text.push_back(c >= 0x20 && c < 0x7F ? char(c) : '?');
+  }
+  while (!text.empty() && text.back() == ' ') text.pop_back();
+  return text;
+}
+
+std::string ExifCameraIdentity(ExifData* exif) {
+  std::string identity;
+  for (const ExifTag tag : {EXIF_TAG_MAKE, EXIF_TAG_MODEL, EXIF_TAG_BODY_SERIAL_NUMBER,
+                            EXIF_TAG_LENS_MODEL}) {
+    identity += ExifText(exif, tag) + "|";
+  }
+  if (const std::optional<double> focal_mm = ExifNumber(exif, EXIF_TAG_FOCAL_LENGTH)) {
+    char focal[32];
+    std::snprintf(focal, sizeof(focal), "%.1f mm", *focal_mm);
+    identity += focal;
+  }
+  return identity == "||||" ? std::string() : identity;
 }
 
 DecodedImage Failure(std::string message) {
@@ -125,7 +153,11 @@ DecodedImage DecodeImageBytes(const std::uint8_t* data, std::size_t size) {
   DecodedImage result;
   result.image = decoded;
   if (IsJpeg(data, size)) {
-    result.exif_focal_length_px = ExifFocalLengthPx(data, size, decoded.cols, decoded.rows);
+    if (ExifData* exif = exif_data_new_from_data(data, static_cast<unsigned int>(size))) {
+      result.exif_focal_length_px = ExifFocalLengthPx(exif, decoded.cols, decoded.rows);
+      result.camera_identity = ExifCameraIdentity(exif);
+      exif_data_unref(exif);
+    }
   }
   return result;
 }

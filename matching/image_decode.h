@@ -26,6 +26,11 @@ struct DecodedImage {
   // image's), else FocalLength with FocalPlaneXResolution; none when it
   // would be a 35 mm equivalent outside 8-2 000 mm.
   std::optional<double> exif_focal_length_px;
+  // The camera body and lens as the EXIF names them (Make, Model,
+  // BodySerialNumber, LensModel) and the focal length in mm (a zoom at
+  // another setting has other intrinsics): images with the same identity
+  // and size share intrinsics. Printable ASCII, bounded; empty without EXIF.
+  std::string camera_identity;
 
   bool ok() const { return error.empty(); }
 };

@@ -6,9 +6,11 @@
 #include <random>
 
 #include <catch2/catch.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include "io/evaluation/evaluation.h"
 #include "io/synthetic/synthetic_source.h"
+#include "tests/testing/exif_jpeg.h"
 
 namespace flysfm {
 namespace {
@@ -185,6 +187,32 @@ TEST_CASE("Every ablation switch still registers the capture accurately") {
   }
 }
 
+TEST_CASE("Registered images keep only LSM windows, and the run needs none of the rest") {
+  Engine engine(Engine::Options(), Capture().camera);
+  const Run run = Feed(&engine, Capture().frames);
+  CheckAllRegisteredOnce(engine, run, Capture().frames.size());
+  // Every image registered: none is kept whole, each keeps tiles, and what
+  // it keeps is less than its 8-bit pyramid (1 500 keypoints' windows leave
+  // some of a 640 x 480 frame uncovered).
+  const LsmImageStore& store = engine.lsm_images();
+  CHECK(store.WholeImages().empty());
+  CHECK(store.whole_bytes() == 0);
+  const std::size_t pyramid_bytes = 640 * 480 * 21 / 16;
+  CHECK(store.window_bytes() > 0);
+  CHECK(store.window_bytes() < Capture().frames.size() * pyramid_bytes);
+  CHECK(CenterRmse(engine.reconstruction(), Capture()) < kCenterTolerance);
+
+  // With no budget for windows, older images drop out of LSM at once: the
+  // capture still registers, from SIFT positions, to the same tolerance.
+  Engine::Options options;
+  options.lsm_images.window_budget_megabytes = 0;
+  Engine forgetful(options, Capture().camera);
+  const Run forgetful_run = Feed(&forgetful, Capture().frames);
+  CheckAllRegisteredOnce(forgetful, forgetful_run, Capture().frames.size());
+  CHECK(forgetful.lsm_images().window_bytes() == 0);
+  CHECK(CenterRmse(forgetful.reconstruction(), Capture()) < kCenterTolerance);
+}
+
 TEST_CASE("Without intrinsics the engine self-calibrates the focal length") {
   Engine engine{Engine::Options()};
   const Run run = Feed(&engine, Capture().frames);
@@ -195,6 +223,36 @@ TEST_CASE("Without intrinsics the engine self-calibrates the focal length") {
   // The guess starts 1.2 x 640 = 768 px against the true 500.
   CHECK(camera.MeanFocalLength() == Approx(Capture().camera.MeanFocalLength()).epsilon(0.02));
   CHECK(CenterRmse(model, Capture()) < 2 * kCenterTolerance);
+}
+
+TEST_CASE("Two camera bodies, as their EXIF tells them, get a camera each") {
+  // The same capture as if shot alternately by two bodies of one model:
+  // each self-calibrates on its own images.
+  std::vector<Frame> frames = Capture().frames;
+  for (std::size_t i = 0; i < frames.size(); ++i) {
+    const cv::Mat image = cv::imdecode(frames[i].bytes, cv::IMREAD_COLOR);
+    frames[i].bytes = testing::JpegWithExif(
+        image, {{}, {{EXIF_TAG_MAKE, "Nikon"},
+                     {EXIF_TAG_MODEL, "D850"},
+                     {EXIF_TAG_BODY_SERIAL_NUMBER, i % 2 ? "2001" : "2002"}}});
+  }
+  Engine engine{Engine::Options()};
+  const Run run = Feed(&engine, frames);
+  CheckAllRegisteredOnce(engine, run, frames.size());
+  const Reconstruction& model = engine.reconstruction();
+  REQUIRE(model.cameras().size() == 2);
+  for (const auto& [camera_id, camera] : model.cameras()) {
+    CHECK(camera.MeanFocalLength() ==
+          Approx(Capture().camera.MeanFocalLength()).epsilon(0.02));
+  }
+  // Images arrive in frame order, so ids follow the frames: neighbours
+  // alternate between the bodies.
+  std::vector<camera_t> camera_of_frame;
+  for (const auto& [image_id, image] : model.images()) camera_of_frame.push_back(image.camera_id);
+  REQUIRE(camera_of_frame.size() == frames.size());
+  for (std::size_t i = 0; i + 1 < frames.size(); ++i) {
+    CHECK(camera_of_frame[i] != camera_of_frame[i + 1]);
+  }
 }
 
 TEST_CASE("A failed initial pair leaves the shared intrinsics as they were") {

@@ -1,43 +1,158 @@
 #include "core/lsm_image_store.h"
 
+#include <random>
+
 #include <catch2/catch.hpp>
 #include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 
 namespace flysfm {
 namespace {
 
-cv::Mat Noise(int seed) {
-  cv::Mat grey(200, 300, CV_8U);
+// Band-limited random texture: what LSM converges on.
+cv::Mat Texture(int width, int height, int seed) {
+  cv::Mat noise(height, width, CV_32F);
   cv::theRNG().state = seed;
-  cv::randu(grey, 0, 255);
+  cv::randu(noise, 0, 255);
+  cv::GaussianBlur(noise, noise, cv::Size(0, 0), 1.5);
+  cv::Mat grey;
+  cv::normalize(noise, noise, 0, 255, cv::NORM_MINMAX);
+  noise.convertTo(grey, CV_8U);
   return grey;
 }
 
-TEST_CASE("The store builds each pyramid once and keeps the cache within its budget") {
-  LsmImageStore::Options options;
-  options.num_pyramid_levels = 2;
-  options.cache_megabytes = 0;  // keeps only the most recent pyramid
-  LsmImageStore store(options);
-  store.Add(1, Noise(1));
-  store.Add(2, Noise(2));
-  const std::vector<LsmImage> first = store.Pyramid(1);
-  REQUIRE(first.size() == 2);
-  const std::size_t one = store.cache_bytes();
-  CHECK(one > 0);
-  // The second evicts the first; the first's levels stay valid for their
-  // holder, and a rebuilt pyramid is the same.
-  store.Pyramid(2);
-  CHECK(store.cache_bytes() == one);
-  const std::vector<LsmImage> rebuilt = store.Pyramid(1);
-  CHECK(cv::norm(rebuilt.front().pixels(), first.front().pixels(), cv::NORM_INF) == 0);
+std::vector<Eigen::Vector2d> RandomPoints(int count, int width, int height, int seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> x(0, width - 1), y(0, height - 1);
+  std::vector<Eigen::Vector2d> points;
+  for (int i = 0; i < count; ++i) points.emplace_back(x(rng), y(rng));
+  return points;
+}
 
-  options.cache_megabytes = 64;
-  LsmImageStore roomy(options);
-  roomy.Add(1, Noise(1));
-  roomy.Add(2, Noise(2));
-  roomy.Pyramid(1);
-  roomy.Pyramid(2);
-  CHECK(roomy.cache_bytes() == 2 * one);
+// Matches each point from `start_offset` away, with image 1's template once
+// from the whole pyramid level and once from the store's window; both must
+// end at the same place.
+void CheckWindowsMatchLikeWholeImage(LsmImageStore* store, image_t image_id,
+                                     const std::vector<LsmImage>& whole, int level, int reach,
+                                     const std::vector<Eigen::Vector2d>& points,
+                                     const Eigen::Vector2d& window_offset, double tolerance_px) {
+  LsmMatcher matcher{LsmOptions()};
+  const double scale = 1.0 / (1 << level);
+  const Eigen::Vector2d start_offset(0.6, -0.4);
+  int num_converged = 0;
+  for (const Eigen::Vector2d& point : points) {
+    const Eigen::Vector2d at_level = scale * point;
+    const LsmImage window = store->Window(image_id, level, point, reach);
+    REQUIRE_FALSE(window.empty());
+    const LsmResult from_whole = matcher.Match(whole[level], at_level, whole[level],
+                                               at_level + start_offset,
+                                               Eigen::Matrix2d::Identity(), window_offset);
+    const LsmResult from_window = matcher.Match(window, at_level, whole[level],
+                                                at_level + start_offset,
+                                                Eigen::Matrix2d::Identity(), window_offset);
+    CHECK(from_window.status == from_whole.status);
+    if (!from_whole.Converged() || !from_window.Converged()) continue;
+    ++num_converged;
+    CHECK((from_window.point2 - from_whole.point2).norm() < tolerance_px);
+  }
+  CHECK(num_converged > int(points.size()) / 2);
+}
+
+TEST_CASE("A template cut from the kept windows matches as the whole image does") {
+  LsmImageStore::Options options;
+  LsmImageStore store(options);
+  const cv::Mat grey = Texture(400, 300, 1);
+  store.Add(1, grey);
+  const std::vector<LsmImage> whole = BuildLsmPyramid(grey, options.num_pyramid_levels);
+  // Away from the border, where the whole image's windows fit too.
+  std::vector<Eigen::Vector2d> points;
+  for (const Eigen::Vector2d& point : RandomPoints(60, 300, 200, 2)) {
+    points.push_back(point + Eigen::Vector2d(50, 50));
+  }
+  const int reach0 = options.template_reach_px;
+  const int coarse_reach = options.coarse_template_reach_px;
+  const Eigen::Vector2d shift(options.template_reach_px - LsmTemplateReach(LsmOptions()), 0);
+  // The spline context of a window (LsmTemplateReach) keeps its
+  // coefficients within 4e-4 of a grey-level step of the whole image's: far
+  // below a thousandth of a pixel in position.
+  const double exact = 1e-3;
+  SECTION("while the image is whole") {
+    CheckWindowsMatchLikeWholeImage(&store, 1, whole, 0, reach0, points, shift, exact);
+  }
+  SECTION("once only the windows are kept") {
+    store.KeepWindows(1, points);
+    REQUIRE_FALSE(store.IsWhole(1));
+    REQUIRE(store.HasPixels(1));
+    CHECK(store.SearchPyramid(1).empty());
+    CheckWindowsMatchLikeWholeImage(&store, 1, whole, 0, reach0, points, Eigen::Vector2d::Zero(),
+                                    exact);
+    CheckWindowsMatchLikeWholeImage(&store, 1, whole, 0, reach0, points, shift, exact);
+    // The coarse levels are kept in 8 bits (the whole pyramid's are float):
+    // half a grey level of rounding moves a converged window by a few
+    // hundredths of a pixel at most, where only a start within the 2 px
+    // basin of the next level is needed.
+    for (int level = 1; level < options.num_pyramid_levels; ++level) {
+      CheckWindowsMatchLikeWholeImage(&store, 1, whole, level, coarse_reach, points,
+                                      Eigen::Vector2d::Zero(), 0.05);
+    }
+    // Nothing is kept far from every point.
+    CHECK(store.Window(1, 0, Eigen::Vector2d(5, 5), reach0).empty() ==
+          (std::none_of(points.begin(), points.end(), [&](const Eigen::Vector2d& p) {
+            return (p - Eigen::Vector2d(5, 5)).lpNorm<Eigen::Infinity>() < 2 * reach0 + 32;
+          })));
+  }
+}
+
+TEST_CASE("Older images keep only their windows, within the budget, least recently used out") {
+  LsmImageStore::Options options;
+  const int width = 1600, height = 1200;
+  // 60 points on a 1 600 x 1 200 image: their windows cover part of it.
+  const std::vector<Eigen::Vector2d> points = RandomPoints(60, width, height, 7);
+  std::size_t one = 0;
+  {
+    LsmImageStore store(options);
+    for (image_t id = 1; id <= 2; ++id) store.Add(id, Texture(width, height, id));
+    CHECK(store.WholeImages() == std::vector<image_t>{1, 2});
+    const std::size_t whole_pyramid = store.whole_bytes() / 2;
+    CHECK(whole_pyramid >= std::size_t(width) * height);
+    // A whole image is searched in its float pyramid, built once and kept
+    // for the next call.
+    const std::vector<LsmImage> search = store.SearchPyramid(2);
+    REQUIRE(search.size() == std::size_t(options.num_pyramid_levels));
+    CHECK(search[0].width() == width);
+    CHECK(store.SearchPyramid(2)[0].data() == search[0].data());
+    const std::size_t before = store.whole_bytes();
+    store.KeepWindows(1, points);
+    CHECK(store.WholeImages() == std::vector<image_t>{2});
+    CHECK(store.whole_bytes() == before - whole_pyramid);
+    one = store.window_bytes();
+    CHECK(one > 0);
+    CHECK(one < whole_pyramid);
+  }
+
+  // Two such images fit in 1 MB, three do not: the least recently read
+  // one goes.
+  options.window_budget_megabytes = 1;
+  const std::size_t budget = std::size_t(1) << 20;
+  REQUIRE(2 * one <= budget);
+  REQUIRE(3 * one > budget);
+  LsmImageStore store(options);
+  for (image_t id = 1; id <= 4; ++id) store.Add(id, Texture(width, height, id));
+  store.KeepWindows(1, points);
+  store.KeepWindows(2, points);
+  CHECK(store.window_bytes() == 2 * one);
+  CHECK_FALSE(store.Window(1, 0, points[0], options.template_reach_px).empty());
+  store.KeepWindows(3, points);
+  CHECK(store.HasPixels(1));
+  CHECK_FALSE(store.HasPixels(2));
+  CHECK(store.Window(2, 0, points[0], options.template_reach_px).empty());
+  CHECK(store.HasPixels(3));
+  CHECK(store.window_bytes() == 2 * one);
+  store.KeepWindows(4, points);
+  CHECK_FALSE(store.HasPixels(1));
+  CHECK(store.HasPixels(3));
+  CHECK(store.WholeImages().empty());
+
   options.num_pyramid_levels = 0;
   CHECK_THROWS_AS(LsmImageStore(options), std::invalid_argument);
 }

@@ -1,5 +1,6 @@
 #include "matching/image_decode.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -7,10 +8,10 @@
 #include <random>
 
 #include <catch2/catch.hpp>
-#include <libexif/exif-data.h>
 #include <opencv2/imgcodecs.hpp>
 
 #include "io/synthetic/procedural_texture.h"
+#include "tests/testing/exif_jpeg.h"
 #include "tests/testing/temp_dir.h"
 
 namespace flysfm {
@@ -93,39 +94,9 @@ TEST_CASE("image files are decoded and listed and missing ones give errors") {
   CHECK_THROWS_AS(ListImageFiles((dir / "nope").string()), std::invalid_argument);
 }
 
-// A JPEG with an EXIF APP1 segment holding the given tags (SHORT values for
-// FocalLengthIn35mmFilm and the resolution unit, RATIONAL for the others).
 std::vector<std::uint8_t> JpegWithExif(const cv::Mat& image,
-                                       const std::vector<std::pair<ExifTag, double>>& tags) {
-  ExifData* exif = exif_data_new();
-  exif_data_set_byte_order(exif, EXIF_BYTE_ORDER_INTEL);
-  for (const auto& [tag, value] : tags) {
-    ExifEntry* entry = exif_entry_new();
-    exif_content_add_entry(exif->ifd[EXIF_IFD_EXIF], entry);
-    exif_entry_initialize(entry, tag);
-    if (entry->format == EXIF_FORMAT_SHORT) {
-      exif_set_short(entry->data, EXIF_BYTE_ORDER_INTEL, ExifShort(value));
-    } else if (entry->format == EXIF_FORMAT_LONG) {
-      exif_set_long(entry->data, EXIF_BYTE_ORDER_INTEL, ExifLong(value));
-    } else {
-      exif_set_rational(entry->data, EXIF_BYTE_ORDER_INTEL,
-                        ExifRational{ExifLong(value * 1000), 1000});
-    }
-    exif_entry_unref(entry);
-  }
-  unsigned char* block = nullptr;
-  unsigned int length = 0;
-  exif_data_save_data(exif, &block, &length);
-  exif_data_unref(exif);
-  REQUIRE(block != nullptr);
-  std::vector<std::uint8_t> jpeg = Encode(image, ".jpg");
-  // APP1 right after the start-of-image marker; its length counts itself.
-  std::vector<std::uint8_t> app1 = {0xFF, 0xE1, std::uint8_t((length + 2) >> 8),
-                                    std::uint8_t((length + 2) & 0xFF)};
-  app1.insert(app1.end(), block, block + length);
-  free(block);
-  jpeg.insert(jpeg.begin() + 2, app1.begin(), app1.end());
-  return jpeg;
+                                       std::vector<std::pair<ExifTag, double>> numbers) {
+  return testing::JpegWithExif(image, {std::move(numbers), {}});
 }
 
 TEST_CASE("the focal length in pixels comes from a JPEG's EXIF when it says enough") {
@@ -177,6 +148,41 @@ TEST_CASE("the focal length in pixels comes from a JPEG's EXIF when it says enou
     CHECK_FALSE(DecodeImageBytes(Encode(image, ".jpg")).exif_focal_length_px);
     CHECK_FALSE(DecodeImageBytes(Encode(image, ".png")).exif_focal_length_px);
   }
+}
+
+TEST_CASE("EXIF tells camera bodies, lenses and zoom settings apart") {
+  const cv::Mat image = MakeTexture(320, 240, 4);
+  const auto identity = [&](testing::ExifTags tags) {
+    const DecodedImage decoded = DecodeImageBytes(testing::JpegWithExif(image, tags));
+    REQUIRE(decoded.ok());
+    return decoded.camera_identity;
+  };
+  const std::vector<std::pair<ExifTag, std::string>> body = {{EXIF_TAG_MAKE, "Canon"},
+                                                             {EXIF_TAG_MODEL, "EOS 5D"}};
+  const std::string plain = identity({{}, body});
+  CHECK(plain.find("Canon") != std::string::npos);
+  CHECK(plain.find("EOS 5D") != std::string::npos);
+  // Another body, another lens, another serial number, another zoom
+  // setting: each another camera.
+  CHECK(identity({{}, {{EXIF_TAG_MAKE, "Canon"}, {EXIF_TAG_MODEL, "EOS R5"}}}) != plain);
+  auto with_lens = body;
+  with_lens.emplace_back(EXIF_TAG_LENS_MODEL, "EF24-70mm f/2.8L");
+  const std::string lens = identity({{}, with_lens});
+  CHECK(lens != plain);
+  auto with_serial = body;
+  with_serial.emplace_back(EXIF_TAG_BODY_SERIAL_NUMBER, "0123");
+  CHECK(identity({{}, with_serial}) != plain);
+  CHECK(identity({{{EXIF_TAG_FOCAL_LENGTH, 24}}, with_lens}) !=
+        identity({{{EXIF_TAG_FOCAL_LENGTH, 70}}, with_lens}));
+  CHECK(identity({{{EXIF_TAG_FOCAL_LENGTH, 24}}, with_lens}) ==
+        identity({{{EXIF_TAG_FOCAL_LENGTH, 24}}, with_lens}));
+  // Hostile text stays printable and bounded.
+  const std::string hostile = identity({{}, {{EXIF_TAG_MODEL, std::string(500, 'x') + "\n\t\x01"}}});
+  CHECK(hostile.size() <= 200);
+  CHECK(std::all_of(hostile.begin(), hostile.end(),
+                    [](unsigned char c) { return c >= 0x20 && c < 0x7F; }));
+  // Without EXIF: no identity (the image size alone then tells cameras apart).
+  CHECK(DecodeImageBytes(Encode(image, ".jpg")).camera_identity.empty());
 }
 
 }  // namespace
