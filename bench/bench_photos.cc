@@ -1,0 +1,807 @@
+// The engine on a long photo session rather than a video: a DSLR walking
+// around a building (synthetic, exact ground truth), 6 MP by default
+// (--megapixels 24 for 6000x4000), 300 shots 1-3 m apart on several loops at
+// different heights and distances, the later loops revisiting the first one.
+// Shows whether the per-image time stays flat and memory stays bounded as the
+// session grows, and the accuracy reached (camera centres after Sim3; the
+// self-calibrated focal length when the camera is unknown). Ends with one
+// line of JSON.
+//
+//   bench_photos [--photos N] [--megapixels 6|24] [--calibrated] [--seed S]
+//                [--supersampling K] [--work DIR] [--profile]
+//
+// Each view is rendered by io/synthetic's renderer, written as a JPEG
+// (quality 92, no EXIF, so the uncalibrated engine must guess the focal
+// length) and fed as a file, as `flysfm batch` feeds a folder: the next photo
+// is decoded and its features extracted on the second core while the engine
+// works (io/sources/prepared_source.h). Rendering is timed apart; it is not
+// the engine's. With --work the JPEGs are kept there and reused by a later
+// run with the same seed and size (rendering 300 photos takes minutes).
+//
+// --profile adds an offline look at why two-view verification costs more on
+// photos than on 640x480 frames: sample pairs of the session are matched and
+// verified again with each RANSAC timed, then the same matches are verified
+// in the pixel scale of the 1600 px feature image and of a 640 px frame; and
+// one LSM pyramid is built at full resolution and at 640x480.
+
+#include <sys/resource.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <map>
+#include <random>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "core/engine.h"
+#include "geometry/two_view_geometry.h"
+#include "io/evaluation/evaluation.h"
+#include "io/sources/image_source.h"
+#include "io/sources/prepared_source.h"
+#include "io/synthetic/procedural_texture.h"
+#include "io/synthetic/synthetic_scene.h"
+#include "lsm/lsm.h"
+#include "matching/matcher.h"
+
+namespace flysfm {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double MsSince(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+double Percentile(std::vector<double> values, double fraction) {
+  if (values.empty()) return 0;
+  std::sort(values.begin(), values.end());
+  const double at = fraction * (values.size() - 1);
+  const std::size_t below = std::size_t(std::floor(at));
+  const std::size_t above = std::min(below + 1, values.size() - 1);
+  return values[below] + (at - below) * (values[above] - values[below]);
+}
+double Median(const std::vector<double>& values) { return Percentile(values, 0.5); }
+
+// Whole process, in MB, from /proc/self/status ("VmRSS", "VmHWM").
+double ProcStatusMb(const std::string& field) {
+  std::ifstream status("/proc/self/status");
+  for (std::string line; std::getline(status, line);) {
+    if (line.compare(0, field.size() + 1, field + ":") == 0) {
+      return std::atof(line.c_str() + field.size() + 1) / 1024.0;
+    }
+  }
+  return -1;
+}
+
+// Resets VmHWM to the current RSS (Linux >= 4.0), so that the peak reported
+// is the engine's and not the rendering's.
+bool ResetPeakRss() {
+  std::ofstream clear("/proc/self/clear_refs");
+  clear << "5";
+  return bool(clear.flush());
+}
+
+// ---------------------------------------------------------------- the scene
+
+// The building's footprint, x in [-kHalfX, kHalfX], y in [-kHalfY, kHalfY]
+// (world z up, ground at z = 0): 16 m x 12 m, 8 m high.
+constexpr double kHalfX = 8.0;
+constexpr double kHalfY = 6.0;
+constexpr double kHeight = 8.0;
+// Wall texels of 4 mm: a pixel of a 6 MP photo with a 30 mm-equivalent lens
+// (focal 2500 px) covers 3.2-6 mm at 8-15 m, so the walls are as sharp as the
+// sensor there. The 28 M wall texels take 112 MB as floats. The ground is
+// seen at grazing angles and needs far fewer (2.5 cm).
+constexpr double kWallTexelsPerMetre = 250.0;
+constexpr double kGroundTexelsPerMetre = 40.0;
+constexpr double kGroundHalfSize = 36.0;
+// Bumped whenever the scene or the path changes, so --work never reuses
+// stale renders.
+constexpr int kSceneVersion = 1;
+
+// Every facet has its own texture (seeded by its index): no two places look
+// alike, as on a real facade with its dirt and weathering.
+TexturedScene MakeBuilding(std::uint32_t seed) {
+  TexturedScene scene;
+  std::uint32_t texture_seed = seed * 7919u;
+  const auto add = [&](const Eigen::Vector3d& origin, const Eigen::Vector3d& u,
+                       const Eigen::Vector3d& v, double texels_per_metre) {
+    TexturedFacet facet;
+    facet.origin = origin;
+    facet.axis_u = u;
+    facet.axis_v = v;
+    const int cols = int(std::ceil(u.norm() * texels_per_metre));
+    const int rows = int(std::ceil(v.norm() * texels_per_metre));
+    cv::Mat texture;
+    MakeTexture(cols, rows, ++texture_seed).convertTo(texture, CV_32F);
+    // Less than a texel of blur: band-limited enough that one sample per
+    // pixel does not alias where a pixel covers a texel or two.
+    cv::GaussianBlur(texture, facet.texture, cv::Size(), 0.8);
+    scene.facets.push_back(std::move(facet));
+  };
+  const Eigen::Vector3d x = Eigen::Vector3d::UnitX();
+  const Eigen::Vector3d y = Eigen::Vector3d::UnitY();
+  const Eigen::Vector3d z = Eigen::Vector3d::UnitZ();
+  const double w = kWallTexelsPerMetre;
+  // The four walls, counter-clockwise from the south one (y = -kHalfY).
+  add({-kHalfX, -kHalfY, 0}, 2 * kHalfX * x, kHeight * z, w);
+  add({kHalfX, -kHalfY, 0}, 2 * kHalfY * y, kHeight * z, w);
+  add({kHalfX, kHalfY, 0}, -2 * kHalfX * x, kHeight * z, w);
+  add({-kHalfX, kHalfY, 0}, -2 * kHalfY * y, kHeight * z, w);
+  // Two bays (front, two sides, roof) give depth and occlusions: one on the
+  // south wall, 4 m wide, 1.5 m out, 5 m high; one on the east wall.
+  const auto bay = [&](const Eigen::Vector3d& corner, const Eigen::Vector3d& along,
+                       const Eigen::Vector3d& out, double height) {
+    add(corner + out, along, height * z, w);          // front
+    add(corner, out, height * z, w);                  // side
+    add(corner + along, out, height * z, w);          // other side
+    add(corner + height * z, along, out, w);          // roof
+  };
+  bay({-3.0, -kHalfY, 0}, 4.0 * x, -1.5 * y, 5.0);
+  bay({kHalfX, -1.0, 0}, 3.0 * y, 1.2 * x, 3.5);
+  // The ground.
+  add({-kGroundHalfSize, -kGroundHalfSize, 0}, 2 * kGroundHalfSize * x,
+      2 * kGroundHalfSize * y, kGroundTexelsPerMetre);
+  return scene;
+}
+
+// ---------------------------------------------------------------- the path
+
+// One loop around the building: the footprint offset by `distance` metres
+// (straight along the walls, quarter circles round the corners) at `height`.
+struct Loop {
+  double height;
+  double distance;
+};
+
+struct Shot {
+  std::string name;
+  Rigid3d cam_from_world;
+  double distance_to_building;  // to the footprint, metres
+};
+
+// The footprint point `s` metres along the loop at `distance` (modulo its
+// length) and the outward direction from it to the loop, on the ground.
+void PointOnLoop(double s, double distance, Eigen::Vector2d* nearest,
+                 Eigen::Vector2d* outward) {
+  const Eigen::Vector2d corners[4] = {
+      {-kHalfX, -kHalfY}, {kHalfX, -kHalfY}, {kHalfX, kHalfY}, {-kHalfX, kHalfY}};
+  const Eigen::Vector2d normals[4] = {{0, -1}, {1, 0}, {0, 1}, {-1, 0}};
+  const double arc = 0.5 * M_PI * distance;
+  const double perimeter = 4 * (kHalfX + kHalfY) + 4 * arc;
+  s = std::fmod(s, perimeter);
+  if (s < 0) s += perimeter;
+  for (int side = 0; side < 4; ++side) {
+    const Eigen::Vector2d& from = corners[side];
+    const Eigen::Vector2d& to = corners[(side + 1) % 4];
+    const double length = (to - from).norm();
+    if (s <= length) {
+      *nearest = from + s / length * (to - from);
+      *outward = normals[side];
+      return;
+    }
+    s -= length;
+    if (s <= arc || side == 3) {
+      // Round the corner: the outward normal turns counter-clockwise.
+      const double angle = std::min(s, arc) / distance;
+      const Eigen::Vector2d& n = normals[side];
+      *nearest = to;
+      *outward = Eigen::Vector2d(std::cos(angle) * n.x() - std::sin(angle) * n.y(),
+                                 std::sin(angle) * n.x() + std::cos(angle) * n.y());
+      return;
+    }
+    s -= arc;
+  }
+}
+
+double LoopLength(double distance) { return 4 * (kHalfX + kHalfY) + 2 * M_PI * distance; }
+
+// The photographer's session: loops at 1.6 m and 10 m, 1.6 m and 16 m, 4.5 m
+// (a raised position) and 12 m, the first loop again (revisits), then 3 m
+// high at 8-20 m; steps of 1-3 m, each shot aimed at the nearest part of the
+// building with the hand's jitter in distance, height, yaw, pitch and roll.
+std::vector<Shot> MakeSession(int num_photos, std::uint32_t seed) {
+  const std::vector<Loop> loops = {{1.6, 10.0}, {1.6, 16.0}, {4.5, 12.0}, {1.6, 10.0},
+                                   {3.0, 14.0}};
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> step(1.0, 3.0);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  std::vector<Shot> shots;
+  for (int loop_index = 0; int(shots.size()) < num_photos; ++loop_index) {
+    const Loop& loop = loops[loop_index % loops.size()];
+    const bool wandering = loop_index % loops.size() == 4;
+    // Each loop starts somewhere else along the south wall.
+    const double start = 4.0 * unit(rng);
+    for (double s = 0; s < LoopLength(loop.distance) && int(shots.size()) < num_photos;
+         s += step(rng)) {
+      const double distance =
+          wandering ? 14.0 + 6.0 * std::sin(0.15 * s) + unit(rng) : loop.distance + unit(rng);
+      Eigen::Vector2d nearest, outward;
+      PointOnLoop(start + s, loop.distance, &nearest, &outward);
+      const Eigen::Vector2d ground = nearest + distance * outward;
+      const Eigen::Vector3d center(ground.x(), ground.y(), loop.height + 0.1 * unit(rng));
+      // Aim at the nearest facade point at 3.5 m, turned by up to 10 deg of
+      // yaw and 4 deg of pitch; up to 2 deg of roll.
+      const Eigen::Vector3d target(nearest.x(), nearest.y(), 3.5);
+      Eigen::Vector3d forward = (target - center).normalized();
+      const Eigen::Vector3d up = Eigen::Vector3d::UnitZ();
+      forward = Eigen::AngleAxisd(10.0 * M_PI / 180 * unit(rng), up) * forward;
+      Eigen::Vector3d right = forward.cross(up).normalized();
+      forward = Eigen::AngleAxisd(4.0 * M_PI / 180 * unit(rng), right) * forward;
+      right = forward.cross(up).normalized();
+      right = Eigen::AngleAxisd(2.0 * M_PI / 180 * unit(rng), forward) * right;
+      // Camera axes: x right, y down, z forward.
+      Eigen::Matrix3d world_from_cam;
+      world_from_cam << right, forward.cross(right), forward;
+      Shot shot;
+      char name[32];
+      std::snprintf(name, sizeof(name), "photo_%04d.jpg", int(shots.size()));
+      shot.name = name;
+      shot.cam_from_world = Rigid3d(Eigen::Matrix3d(world_from_cam.transpose()),
+                                    -(world_from_cam.transpose() * center));
+      shot.distance_to_building = (ground - nearest).norm();
+      shots.push_back(shot);
+    }
+  }
+  return shots;
+}
+
+// Renders the shots missing from `dir` as JPEGs (quality 92; OpenCV writes
+// JFIF, no EXIF) on `num_threads` threads. Returns the render times (ms) of
+// the photos rendered now.
+std::vector<double> RenderSession(const std::vector<Shot>& shots, const Camera& camera,
+                                  std::uint32_t seed, int supersampling,
+                                  const std::filesystem::path& dir, int num_threads) {
+  std::vector<int> missing;
+  for (int i = 0; i < int(shots.size()); ++i) {
+    if (!std::filesystem::exists(dir / shots[i].name)) missing.push_back(i);
+  }
+  if (missing.empty()) return {};
+  const auto start = Clock::now();
+  const TexturedScene scene = MakeBuilding(seed);
+  std::size_t texels = 0;
+  for (const TexturedFacet& facet : scene.facets) texels += facet.texture.total();
+  std::printf("scene: %zu facets, %.0f MB of textures, made in %.1f s\n", scene.facets.size(),
+              texels * sizeof(float) / 1048576.0, MsSince(start) / 1000);
+  std::fflush(stdout);
+  std::vector<double> times(missing.size());
+  const auto work = [&](int thread) {
+    for (std::size_t k = thread; k < missing.size(); k += num_threads) {
+      const Shot& shot = shots[missing[k]];
+      const auto begin = Clock::now();
+      const RenderedView view = Render(scene, camera, shot.cam_from_world, supersampling);
+      times[k] = MsSince(begin);
+      // A colour photo (slightly warm), so that decoding does a camera
+      // JPEG's chroma work.
+      cv::Mat bgr;
+      cv::cvtColor(view.image, bgr, cv::COLOR_GRAY2BGR);
+      cv::multiply(bgr, cv::Scalar(0.9, 1.0, 1.05), bgr);
+      const std::string tmp = (dir / (shot.name + ".tmp.jpg")).string();
+      cv::imwrite(tmp, bgr, {cv::IMWRITE_JPEG_QUALITY, 92});
+      std::filesystem::rename(tmp, dir / shot.name);
+    }
+  };
+  std::vector<std::thread> threads;
+  for (int t = 0; t < num_threads; ++t) threads.emplace_back(work, t);
+  for (std::thread& thread : threads) thread.join();
+  return times;
+}
+
+// ---------------------------------------------------------------- profile
+
+// Times of one pair's verification (ms) and what it found.
+struct PairProfile {
+  int raw_matches = 0;
+  double match_ms = 0;
+  double f_ms = 0, h_ms = 0, e_ms = 0;
+  int f_iterations = 0, h_iterations = 0, e_iterations = 0;
+  // EstimateCalibratedTwoViewGeometry on the same matches, in the pixels of
+  // the photo, of the 1600 px feature image and of a 640 px wide frame.
+  double full_ms = 0, feature_scale_ms = 0, video_scale_ms = 0;
+  int full_inliers = 0, feature_scale_inliers = 0, video_scale_inliers = 0;
+};
+
+Camera Scaled(const Camera& camera, double scale) {
+  Camera scaled = camera;
+  for (double& p : scaled.params) p *= scale;
+  scaled.width = int(std::round(camera.width * scale));
+  scaled.height = int(std::round(camera.height * scale));
+  return scaled;
+}
+
+nlohmann::json Profile(const std::vector<Frame>& frames, const Camera& camera,
+                       const Engine::Options& options) {
+  const int n = int(frames.size());
+  std::map<int, PreparedFrame> prepared;
+  const auto get = [&](int i) -> const PreparedFrame& {
+    auto it = prepared.find(i);
+    if (it == prepared.end()) it = prepared.emplace(i, Engine::Prepare(frames[i], options)).first;
+    return it->second;
+  };
+  // Near pairs (1-4 shots apart) overlap; pairs 10 and 25 shots apart
+  // mostly do not, like the low-ranked retrieval candidates the engine still
+  // verifies when fewer than max_verified_pairs of them verify.
+  std::vector<std::pair<int, int>> pairs;
+  for (int k = 1; k <= 4; ++k) {
+    const int i = k * n / 5;
+    for (const int back : {1, 2, 4, 10, 25}) {
+      if (i - back >= 0 && i < n) pairs.emplace_back(i, i - back);
+    }
+  }
+  const TwoViewGeometryOptions& two_view = options.verification.two_view;
+  RansacOptions ransac = two_view.ransac;
+  ransac.max_error = two_view.max_error_px;
+  std::vector<PairProfile> profiles;
+  std::printf("\nprofile: sample pairs verified again offline (ms; RANSAC iterations)\n"
+              "  pair        raw   match   F (it)      H (it)      E (it)      two-view at "
+              "photo / 1600 px / 640 px scale (inliers)\n");
+  for (const auto& [i, j] : pairs) {
+    const FeatureSet& a = get(i).features;
+    const FeatureSet& b = get(j).features;
+    PairProfile p;
+    auto start = Clock::now();
+    const std::vector<FeatureMatch> raw =
+        MatchDescriptors(a.descriptors, b.descriptors, options.verification.matching);
+    p.match_ms = MsSince(start);
+    p.raw_matches = int(raw.size());
+    std::vector<Eigen::Vector2d> pa, pb, na, nb;
+    for (const FeatureMatch& m : raw) {
+      pa.emplace_back(a.keypoints[m.idx1].x, a.keypoints[m.idx1].y);
+      pb.emplace_back(b.keypoints[m.idx2].x, b.keypoints[m.idx2].y);
+      na.push_back(camera.CamFromImg(pa.back()));
+      nb.push_back(camera.CamFromImg(pb.back()));
+    }
+    if (int(raw.size()) >= two_view.min_num_inliers_f) {
+      start = Clock::now();
+      const auto f = EstimateFundamentalMatrix(pa, pb, ransac);
+      p.f_ms = MsSince(start);
+      p.f_iterations = f.num_iterations;
+      start = Clock::now();
+      const auto h = EstimateHomographyMatrix(pa, pb, ransac);
+      p.h_ms = MsSince(start);
+      p.h_iterations = h.num_iterations;
+      RansacOptions ransac_e = ransac;
+      ransac_e.max_error = two_view.max_error_px / camera.MeanFocalLength();
+      start = Clock::now();
+      const auto e = EstimateEssentialMatrix(na, nb, ransac_e);
+      p.e_ms = MsSince(start);
+      p.e_iterations = e.num_iterations;
+      const auto at_scale = [&](double scale, double* ms, int* inliers) {
+        std::vector<Eigen::Vector2d> sa = pa, sb = pb;
+        for (auto& x : sa) x *= scale;
+        for (auto& x : sb) x *= scale;
+        const Camera c = Scaled(camera, scale);
+        const auto begin = Clock::now();
+        const TwoViewGeometry g = EstimateCalibratedTwoViewGeometry(c, sa, c, sb, two_view);
+        *ms = MsSince(begin);
+        *inliers = g.num_inliers;
+      };
+      at_scale(1.0, &p.full_ms, &p.full_inliers);
+      const double feature_scale =
+          std::min(1.0, double(options.sift.max_image_size) / std::max(camera.width, camera.height));
+      at_scale(feature_scale, &p.feature_scale_ms, &p.feature_scale_inliers);
+      at_scale(640.0 / camera.width, &p.video_scale_ms, &p.video_scale_inliers);
+    }
+    std::printf("  %4d-%-4d %6d %7.1f %6.1f (%5d) %5.1f (%5d) %5.1f (%5d)   %6.1f (%d) / "
+                "%6.1f (%d) / %6.1f (%d)\n",
+                i, j, p.raw_matches, p.match_ms, p.f_ms, p.f_iterations, p.h_ms, p.h_iterations,
+                p.e_ms, p.e_iterations, p.full_ms, p.full_inliers, p.feature_scale_ms,
+                p.feature_scale_inliers, p.video_scale_ms, p.video_scale_inliers);
+    profiles.push_back(p);
+  }
+  const auto median_of = [&](auto field, int verified) {
+    // verified: 1 pairs with enough inliers, 0 without, -1 all.
+    std::vector<double> values;
+    for (const PairProfile& p : profiles) {
+      const bool ok = p.full_inliers >= two_view.min_num_inliers_f;
+      if (verified < 0 || ok == bool(verified)) values.push_back(double(p.*field));
+    }
+    return Median(values);
+  };
+  nlohmann::json json = {{"pairs", profiles.size()}};
+  for (const auto& [label, verified] :
+       std::vector<std::pair<std::string, int>>{{"verified", 1}, {"failed", 0}}) {
+    int count = 0;
+    for (const PairProfile& p : profiles) {
+      count += (p.full_inliers >= two_view.min_num_inliers_f) == bool(verified);
+    }
+    json[label] = {
+        {"pairs", count},
+        {"median_raw_matches", median_of(&PairProfile::raw_matches, verified)},
+        {"median_match_ms", median_of(&PairProfile::match_ms, verified)},
+        {"median_f_ms", median_of(&PairProfile::f_ms, verified)},
+        {"median_h_ms", median_of(&PairProfile::h_ms, verified)},
+        {"median_e_ms", median_of(&PairProfile::e_ms, verified)},
+        {"median_f_iterations", median_of(&PairProfile::f_iterations, verified)},
+        {"median_h_iterations", median_of(&PairProfile::h_iterations, verified)},
+        {"median_e_iterations", median_of(&PairProfile::e_iterations, verified)},
+        {"median_two_view_ms_photo_px", median_of(&PairProfile::full_ms, verified)},
+        {"median_two_view_ms_feature_px", median_of(&PairProfile::feature_scale_ms, verified)},
+        {"median_two_view_ms_640px", median_of(&PairProfile::video_scale_ms, verified)},
+        {"median_inliers_photo_px", median_of(&PairProfile::full_inliers, verified)},
+        {"median_inliers_feature_px", median_of(&PairProfile::feature_scale_inliers, verified)},
+        {"median_inliers_640px", median_of(&PairProfile::video_scale_inliers, verified)}};
+    const nlohmann::json& j = json[label];
+    std::printf("  median of the %d %s pairs: %.0f raw matches; match %.1f ms; F %.1f ms (%.0f "
+                "it), H %.1f ms (%.0f it), E %.1f ms (%.0f it); two-view %.1f ms in photo "
+                "pixels, %.1f ms in 1600 px, %.1f ms in 640 px (inliers %.0f / %.0f / %.0f)\n",
+                count, label.c_str(), j["median_raw_matches"].get<double>(),
+                j["median_match_ms"].get<double>(), j["median_f_ms"].get<double>(),
+                j["median_f_iterations"].get<double>(), j["median_h_ms"].get<double>(),
+                j["median_h_iterations"].get<double>(), j["median_e_ms"].get<double>(),
+                j["median_e_iterations"].get<double>(),
+                j["median_two_view_ms_photo_px"].get<double>(),
+                j["median_two_view_ms_feature_px"].get<double>(),
+                j["median_two_view_ms_640px"].get<double>(),
+                j["median_inliers_photo_px"].get<double>(),
+                j["median_inliers_feature_px"].get<double>(),
+                j["median_inliers_640px"].get<double>());
+  }
+  // Decoding and SIFT of the sampled photos, run here with the engine idle:
+  // against the run's figures, what sharing the two cores costs.
+  std::vector<double> decode_ms, features_ms;
+  for (const auto& [index, frame] : prepared) {
+    decode_ms.push_back(frame.decode_ms);
+    features_ms.push_back(frame.features_ms);
+  }
+  json["alone_decode_ms"] = Median(decode_ms);
+  json["alone_features_ms"] = Median(features_ms);
+  std::printf("  decode %.0f ms, features %.0f ms (medians of the %zu sampled photos prepared "
+              "alone, engine idle)\n",
+              Median(decode_ms), Median(features_ms), decode_ms.size());
+
+  // LSM reads whole-resolution pyramids: their cost and size at this
+  // resolution against a 640x480 frame's.
+  const cv::Mat& grey = get(pairs.empty() ? 0 : pairs.front().first).grey;
+  cv::Mat small;
+  cv::resize(grey, small, cv::Size(640, 480), 0, 0, cv::INTER_AREA);
+  const int levels = options.lsm_images.num_pyramid_levels;
+  const auto pyramid = [&](const cv::Mat& image, double* ms, double* mb) {
+    const auto begin = Clock::now();
+    const std::vector<LsmImage> built = BuildLsmPyramid(image, levels);
+    *ms = MsSince(begin);
+    std::size_t bytes = 0;
+    for (const LsmImage& level : built) bytes += level.ByteSize();
+    *mb = bytes / 1048576.0;
+  };
+  double photo_ms, photo_mb, frame_ms, frame_mb;
+  pyramid(grey, &photo_ms, &photo_mb);
+  pyramid(small, &frame_ms, &frame_mb);
+  std::printf("  LSM pyramid (%d levels): %.0f ms and %.1f MB at %dx%d, %.1f ms and %.2f MB at "
+              "640x480; the %d MB pyramid cache holds %.0f photo pyramids; the grey images "
+              "LSM keeps take %.1f MB per photo\n",
+              levels, photo_ms, photo_mb, grey.cols, grey.rows, frame_ms, frame_mb,
+              options.lsm_images.cache_megabytes, options.lsm_images.cache_megabytes / photo_mb,
+              grey.total() / 1048576.0);
+  json["lsm_pyramid_ms_photo"] = photo_ms;
+  json["lsm_pyramid_mb_photo"] = photo_mb;
+  json["lsm_pyramid_ms_640x480"] = frame_ms;
+  json["lsm_pyramid_mb_640x480"] = frame_mb;
+  json["grey_mb_per_photo"] = grey.total() / 1048576.0;
+  return json;
+}
+
+// ---------------------------------------------------------------- the run
+
+StageTimes SumOfTimes(const std::vector<ImageResult>& results) {
+  StageTimes sum;
+  for (const ImageResult& result : results) {
+    for (const auto& [name, stage] : StageTimes::Stages()) sum.*stage += result.times.*stage;
+  }
+  sum.UpdateTotal();
+  return sum;
+}
+
+}  // namespace
+}  // namespace flysfm
+
+int main(int argc, char** argv) {
+  using namespace flysfm;
+  int num_photos = 300;
+  int megapixels = 6;
+  bool calibrated = false;
+  bool profile = false;
+  int seed = 1;
+  int supersampling = 1;
+  std::string work;
+  for (int i = 1; i < argc; ++i) {
+    const bool has_value = i + 1 < argc;
+    if (!std::strcmp(argv[i], "--photos") && has_value) {
+      num_photos = std::atoi(argv[++i]);
+    } else if (!std::strcmp(argv[i], "--megapixels") && has_value) {
+      megapixels = std::atoi(argv[++i]);
+    } else if (!std::strcmp(argv[i], "--seed") && has_value) {
+      seed = std::atoi(argv[++i]);
+    } else if (!std::strcmp(argv[i], "--supersampling") && has_value) {
+      supersampling = std::atoi(argv[++i]);
+    } else if (!std::strcmp(argv[i], "--work") && has_value) {
+      work = argv[++i];
+    } else if (!std::strcmp(argv[i], "--calibrated")) {
+      calibrated = true;
+    } else if (!std::strcmp(argv[i], "--profile")) {
+      profile = true;
+    } else {
+      num_photos = -1;
+      break;
+    }
+  }
+  if (num_photos < 10 || (megapixels != 6 && megapixels != 24) || supersampling < 1) {
+    std::cerr << "usage: bench_photos [--photos N>=10] [--megapixels 6|24] [--calibrated] "
+                 "[--seed S] [--supersampling K] [--work DIR] [--profile]\n";
+    return 2;
+  }
+
+  // 3:2 sensor; a 30 mm-equivalent lens (36 mm film width): f = 30/36 width.
+  const int width = megapixels == 24 ? 6000 : 3000;
+  const int height = width * 2 / 3;
+  const double focal = width * 30.0 / 36.0;
+  std::ostringstream camera_text;
+  camera_text << "PINHOLE " << focal << "," << focal << "," << 0.5 * (width - 1) << ","
+              << 0.5 * (height - 1);
+  const Camera camera = Camera::FromString(camera_text.str(), width, height);
+
+  // The folder of JPEGs: --work (kept, reused when its manifest matches) or
+  // a temporary one (removed at the end).
+  namespace fs = std::filesystem;
+  const bool keep = !work.empty();
+  const fs::path dir = keep ? fs::path(work)
+                            : fs::temp_directory_path() /
+                                  ("bench_photos_" + std::to_string(::getpid()));
+  const nlohmann::json manifest = {{"scene_version", kSceneVersion},
+                                   {"seed", seed},
+                                   {"width", width},
+                                   {"height", height},
+                                   {"supersampling", supersampling}};
+  fs::create_directories(dir);
+  {
+    nlohmann::json existing;
+    std::ifstream in(dir / "manifest.json");
+    if (in) in >> existing;
+    if (existing != manifest) {
+      for (const auto& entry : fs::directory_iterator(dir)) {
+        if (entry.path().extension() == ".jpg") fs::remove(entry.path());
+      }
+      std::ofstream(dir / "manifest.json") << manifest.dump() << "\n";
+    }
+  }
+
+  const std::vector<Shot> shots = MakeSession(num_photos, std::uint32_t(seed));
+  std::printf("bench_photos: %d photos of %dx%d (%d MP), focal %.0f px (30 mm equivalent), %s; "
+              "seed %d; photos in %s\n",
+              num_photos, width, height, megapixels, focal,
+              calibrated ? "CALIBRATED (the true K given, held fixed)"
+                         : "UNCALIBRATED (focal guessed by the engine, self-calibrated in BA)",
+              seed, dir.c_str());
+  std::fflush(stdout);
+
+  // Rendering: on both cores (the engine does not run yet); not engine time.
+  const std::vector<double> render_ms =
+      RenderSession(shots, camera, std::uint32_t(seed), supersampling, dir, 2);
+  if (render_ms.empty()) {
+    std::printf("render: all %d photos reused from %s\n", num_photos, dir.c_str());
+  } else {
+    std::printf("render: %zu photos at supersampling %d, median %.0f ms per photo (one core; "
+                "two rendered at a time)\n",
+                render_ms.size(), supersampling, Median(render_ms));
+  }
+  std::uintmax_t jpeg_bytes = 0;
+  std::vector<Frame> frames;
+  std::map<std::string, Eigen::Vector3d> true_centers;
+  double mean_distance = 0;
+  for (int i = 0; i < num_photos; ++i) {
+    Frame frame;
+    frame.name = shots[i].name;
+    frame.path = dir / shots[i].name;
+    frame.timestamp = i;
+    jpeg_bytes += fs::file_size(frame.path);
+    frames.push_back(frame);
+    true_centers[shots[i].name] = ProjectionCenter(shots[i].cam_from_world);
+    mean_distance += shots[i].distance_to_building / num_photos;
+  }
+  std::printf("photos: mean JPEG %.1f MB; mean distance to the building %.1f m\n",
+              jpeg_bytes / 1048576.0 / num_photos, mean_distance);
+
+  // The engine, as `flysfm batch` makes it (with --camera when calibrated).
+  Engine::Options options;
+  std::optional<Camera> known_camera;
+  if (calibrated) known_camera = Camera::FromString(camera_text.str(), 0, 0);
+  const double rss_before_mb = ProcStatusMb("VmRSS");
+  const bool peak_reset = ResetPeakRss();
+  const auto start = Clock::now();
+  std::vector<double> call_ms, engine_ms;
+  std::vector<StageTimes> call_times;
+  std::vector<int> verified_pairs, candidates;
+  std::vector<std::pair<int, double>> rss_samples;
+  {
+    Engine engine(options, known_camera);
+    FrameListSource source(frames);
+    PreparedFrameSource prepared(&source, options);
+    int index = 0;
+    while (std::optional<PreparedFrame> frame = prepared.Next()) {
+      const auto call = Clock::now();
+      const std::vector<ImageResult> out = engine.AddImage(std::move(*frame));
+      engine_ms.push_back(MsSince(call));
+      const StageTimes times = SumOfTimes(out);
+      call_times.push_back(times);
+      call_ms.push_back(times.total);
+      verified_pairs.push_back(out.front().num_verified_pairs);
+      candidates.push_back(out.front().num_candidates);
+      ++index;
+      std::printf("[%4d] %-16s %-10s all stages %6.0f ms (decode %4.0f, features %4.0f, "
+                  "verification %5.0f, lsm %5.0f, ba %5.0f), engine %6.0f ms, %2d/%2d pairs, "
+                  "model %d img / %d pts%s%s\n",
+                  index, out.front().name.c_str(), ImageStatusName(out.front().status),
+                  times.total, times.decode, times.features, times.verification, times.lsm,
+                  times.ba, engine_ms.back(), out.front().num_verified_pairs,
+                  out.front().num_candidates, out.back().model_images, out.back().model_points,
+                  out.front().reason.empty() ? "" : "  ", out.front().reason.c_str());
+      if (index % 50 == 0 || index == num_photos) {
+        rss_samples.emplace_back(index, ProcStatusMb("VmRSS"));
+        std::printf("       RSS after %d photos: %.0f MB\n", index, rss_samples.back().second);
+      }
+      std::fflush(stdout);
+    }
+    const auto finish = Clock::now();
+    engine.Finish();
+    const double finish_s = MsSince(finish) / 1000;
+    const double wall_s = MsSince(start) / 1000;
+    const double peak_mb = ProcStatusMb("VmHWM");
+    rusage usage;
+    getrusage(RUSAGE_SELF, &usage);
+    const double maxrss_mb = usage.ru_maxrss / 1024.0;
+
+    // Accuracy.
+    const Reconstruction& model = engine.reconstruction();
+    const std::optional<PositionErrors> errors = CompareCentersByName(model, true_centers);
+    double final_focal = 0;
+    for (const auto& [camera_id, c] : model.cameras()) final_focal = c.MeanFocalLength();
+    const double focal_error = final_focal / focal - 1;
+
+    // Figures.
+    const auto stats = [](const std::vector<double>& v) {
+      return nlohmann::json{{"median", Median(v)}, {"p95", Percentile(v, 0.95)},
+                            {"max", v.empty() ? 0 : *std::max_element(v.begin(), v.end())}};
+    };
+    const auto window = [&](std::size_t begin, std::size_t end) {
+      end = std::min(end, call_times.size());
+      begin = std::min(begin, end);
+      nlohmann::json stages;
+      for (const auto& [name, stage] : StageTimes::Stages()) {
+        std::vector<double> v;
+        for (std::size_t i = begin; i < end; ++i) v.push_back(call_times[i].*stage);
+        stages[name] = Median(v);
+      }
+      std::vector<double> total(call_ms.begin() + begin, call_ms.begin() + end);
+      std::vector<double> engine(engine_ms.begin() + begin, engine_ms.begin() + end);
+      std::vector<double> pairs(verified_pairs.begin() + begin, verified_pairs.begin() + end);
+      return nlohmann::json{{"photos", {begin, end}},
+                            {"median_all_stages_ms", Median(total)},
+                            {"median_engine_ms", Median(engine)},
+                            {"median_verified_pairs", Median(pairs)},
+                            {"stage_median_ms", stages}};
+    };
+    const std::size_t n = call_ms.size();
+    const nlohmann::json early = window(25, 75);
+    const nlohmann::json late = window(n >= 50 ? n - 50 : 0, n);
+    const double growth = early["median_all_stages_ms"].get<double>() > 0
+                              ? late["median_all_stages_ms"].get<double>() /
+                                    early["median_all_stages_ms"].get<double>()
+                              : 0;
+    const double engine_growth = early["median_engine_ms"].get<double>() > 0
+                                     ? late["median_engine_ms"].get<double>() /
+                                           early["median_engine_ms"].get<double>()
+                                     : 0;
+    nlohmann::json rss = nlohmann::json::object();
+    for (const auto& [index, mb] : rss_samples) rss[std::to_string(index)] = mb;
+
+    const nlohmann::json all_stats = stats(call_ms);
+    const nlohmann::json engine_stats = stats(engine_ms);
+    std::printf("\n%s, %d photos of %dx%d: registered %zu, %zu pending, %zu points; "
+                "%.1f s in all (%.2f s per photo), Finish (pending + global BA) %.1f s\n",
+                calibrated ? "calibrated" : "uncalibrated", num_photos, width, height,
+                model.NumRegisteredImages(), engine.PendingImageNames().size(),
+                model.NumPoints3D(), wall_s, wall_s / num_photos, finish_s);
+    std::printf("per-photo time, all stages (decode + features + engine): median %.0f ms, p95 "
+                "%.0f ms, max %.0f ms\n",
+                all_stats["median"].get<double>(), all_stats["p95"].get<double>(),
+                all_stats["max"].get<double>());
+    std::printf("per-photo engine time (AddImage; decode + features ran ahead on the 2nd "
+                "core): median %.0f ms, p95 %.0f ms, max %.0f ms\n",
+                engine_stats["median"].get<double>(), engine_stats["p95"].get<double>(),
+                engine_stats["max"].get<double>());
+    std::printf("growth, median of the last 50 / photos 25-75: all stages %.2f, engine %.2f\n",
+                growth, engine_growth);
+    std::printf("  %-14s %12s %12s\n", "stage (ms)", "photos 25-75", "last 50");
+    for (const auto& [name, stage] : StageTimes::Stages()) {
+      std::printf("  %-14s %12.1f %12.1f\n", name, early["stage_median_ms"][name].get<double>(),
+                  late["stage_median_ms"][name].get<double>());
+    }
+    std::printf("  %-14s %12.1f %12.1f\n", "verified pairs",
+                early["median_verified_pairs"].get<double>(),
+                late["median_verified_pairs"].get<double>());
+    // The engine verifies candidates in retrieval order until
+    // max_verified_pairs verify: an image with fewer tried all of them.
+    int tried_all = 0;
+    double verification_per_candidate = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      if (verified_pairs[i] < options.max_verified_pairs && candidates[i] > 0) {
+        ++tried_all;
+        verification_per_candidate +=
+            (call_times[i].matching + call_times[i].verification) / candidates[i];
+      }
+    }
+    if (tried_all > 0) verification_per_candidate /= tried_all;
+    std::printf("pairs: %d of %zu photos verified fewer than %d pairs and so matched every "
+                "candidate; for them matching + verification took %.1f ms per candidate\n",
+                tried_all, n, options.max_verified_pairs, verification_per_candidate);
+    std::printf("memory: RSS %.0f MB before the engine; during the run:", rss_before_mb);
+    for (const auto& [index, mb] : rss_samples) std::printf(" %d: %.0f MB,", index, mb);
+    std::printf(" peak (VmHWM%s) %.0f MB; ru_maxrss (whole process, rendering included) %.0f "
+                "MB\n",
+                peak_reset ? ", reset before the engine" : "", peak_mb, maxrss_mb);
+    if (errors) {
+      std::printf("accuracy: %d centres compared, RMSE after Sim3 %.3f m = %.4f of the mean "
+                  "distance to the building (%.1f m); median %.3f m, max %.3f m\n",
+                  errors->num_compared, errors->rmse, errors->rmse / mean_distance,
+                  mean_distance, errors->median, errors->max);
+    } else {
+      std::printf("accuracy: too few registered images to align\n");
+    }
+    if (!calibrated) {
+      std::printf("focal length: final %.1f px, true %.1f px, relative error %+.4f (start %.0f "
+                  "px)\n",
+                  final_focal, focal, focal_error, options.unknown_focal_factor * width);
+    }
+
+    nlohmann::json json = {
+        {"bench", "photos"},
+        {"photos", num_photos},
+        {"width", width},
+        {"height", height},
+        {"calibrated", calibrated},
+        {"seed", seed},
+        {"registered", model.NumRegisteredImages()},
+        {"pending", engine.PendingImageNames().size()},
+        {"points", model.NumPoints3D()},
+        {"mean_reprojection_error_px", model.MeanReprojectionError()},
+        {"render_median_ms", Median(render_ms)},
+        {"wall_s", wall_s},
+        {"finish_s", finish_s},
+        {"all_stages_ms", all_stats},
+        {"engine_ms", engine_stats},
+        {"growth_all_stages_last50_over_25_75", growth},
+        {"growth_engine_last50_over_25_75", engine_growth},
+        {"early", early},
+        {"late", late},
+        {"rss_before_mb", rss_before_mb},
+        {"rss_mb", rss},
+        {"peak_rss_mb", peak_mb},
+        {"ru_maxrss_mb", maxrss_mb},
+        {"mean_distance_m", mean_distance},
+        {"center_rmse_m", errors ? errors->rmse : -1.0},
+        {"center_rmse_relative", errors ? errors->rmse / mean_distance : -1.0},
+        {"true_focal_px", focal},
+        {"final_focal_px", final_focal},
+        {"focal_relative_error", calibrated ? 0.0 : focal_error},
+        {"photos_matching_every_candidate", tried_all},
+        {"match_and_verify_ms_per_candidate", verification_per_candidate}};
+    if (profile) json["profile"] = Profile(frames, camera, options);
+    std::cout << json.dump() << "\n";
+  }
+  if (!keep) fs::remove_all(dir);
+  return 0;
+}
