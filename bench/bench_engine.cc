@@ -196,6 +196,8 @@ int main(int argc, char** argv) {
         {"plain local BA (no weights)",
          [](Engine::Options* o) { o->hierarchical_weights = false; }},
         {"exhaustive retrieval", [](Engine::Options* o) { o->retrieval.use_tree = false; }},
+        {"no track completion or merging",
+         [](Engine::Options* o) { o->triangulation.complete_and_merge_tracks = false; }},
     };
     std::vector<Run> runs = {full};
     for (const auto& [name, change] : variants) {

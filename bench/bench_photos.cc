@@ -481,12 +481,11 @@ nlohmann::json Profile(const std::vector<Frame>& frames, const Camera& camera,
   double photo_ms, photo_mb, frame_ms, frame_mb;
   pyramid(grey, &photo_ms, &photo_mb);
   pyramid(small, &frame_ms, &frame_mb);
-  std::printf("  LSM pyramid (%d levels): %.0f ms and %.1f MB at %dx%d, %.1f ms and %.2f MB at "
-              "640x480; the %d MB pyramid cache holds %.0f photo pyramids; the grey images "
-              "LSM keeps take %.1f MB per photo\n",
+  std::printf("  LSM search pyramid (%d levels, built once for each new photo): %.0f ms and "
+              "%.1f MB at %dx%d, %.1f ms and %.2f MB at 640x480; a whole 8-bit grey photo is "
+              "%.1f MB (older photos keep only windows, within %d MB)\n",
               levels, photo_ms, photo_mb, grey.cols, grey.rows, frame_ms, frame_mb,
-              options.lsm_images.cache_megabytes, options.lsm_images.cache_megabytes / photo_mb,
-              grey.total() / 1048576.0);
+              grey.total() / 1048576.0, options.lsm_images.window_budget_megabytes);
   json["lsm_pyramid_ms_photo"] = photo_ms;
   json["lsm_pyramid_mb_photo"] = photo_mb;
   json["lsm_pyramid_ms_640x480"] = frame_ms;
@@ -651,7 +650,11 @@ int main(int argc, char** argv) {
                   out.front().reason.empty() ? "" : "  ", out.front().reason.c_str());
       if (index % 50 == 0 || index == num_photos) {
         rss_samples.emplace_back(index, ProcStatusMb("VmRSS"));
-        std::printf("       RSS after %d photos: %.0f MB\n", index, rss_samples.back().second);
+        std::printf("       RSS after %d photos: %.0f MB (LSM store: windows %.0f MB, whole "
+                    "images %.0f MB)\n",
+                    index, rss_samples.back().second,
+                    engine.lsm_images().window_bytes() / 1048576.0,
+                    engine.lsm_images().whole_bytes() / 1048576.0);
       }
       std::fflush(stdout);
     }

@@ -141,6 +141,7 @@ Triangulator::Summary Triangulator::TriangulateImage(image_t image_id) {
 
   // Completion and merging of the tracks this image observes, through the
   // matches of their observations in this image and its neighbours.
+  if (!options_.complete_and_merge_tracks) return summary;
   std::unordered_set<image_t> local = {image_id};
   for (const image_t other_id : matches_->Neighbours(image_id)) local.insert(other_id);
   std::vector<point3D_t> touched;

@@ -26,6 +26,10 @@ class Triangulator {
     // when their joint position (the track-length weighted mean) reprojects
     // within it in every observation of both, as a new track's inliers must.
     TriangulationOptions triangulation;
+    // Completion and merging of the tracks the image observes, as COLMAP's
+    // triangulator does; off only to measure what they bring
+    // (bench/bench_engine --ablation).
+    bool complete_and_merge_tracks = true;
 
     bool Check() const;
   };

@@ -77,6 +77,17 @@ TwoViewGeometry EstimateCore(const std::vector<Eigen::Vector2d>& p1,
   const double threshold2 = options.max_error_px * options.max_error_px;
   RansacOptions ransac = options.ransac;
   ransac.max_error = options.max_error_px;
+  // A model with fewer inliers than a verified pair needs is never used: no
+  // model search draws more samples than finding one with that many takes.
+  // On a photo's candidates that do not overlap it (a dozen or two chance
+  // matches left by the ratio test) this stops the search after tens of
+  // samples instead of thousands.
+  const auto at_least = [&](const RansacOptions& base, int min_num_inliers) {
+    RansacOptions bounded = base;
+    bounded.min_inlier_ratio =
+        std::max(base.min_inlier_ratio, std::min(1.0, min_num_inliers / static_cast<double>(n)));
+    return bounded;
+  };
 
   std::vector<double> errors_f(n, std::numeric_limits<double>::infinity());
   std::vector<double> errors_h = errors_f, errors_e = errors_f;
@@ -84,7 +95,8 @@ TwoViewGeometry EstimateCore(const std::vector<Eigen::Vector2d>& p1,
   bool have_f = false, have_h = false, have_e = false;
 
   if (n >= FundamentalEstimator::kMinSampleSize) {
-    const auto report = EstimateFundamentalMatrix(p1, p2, ransac);
+    const auto report =
+        EstimateFundamentalMatrix(p1, p2, at_least(ransac, options.min_num_inliers_f));
     if (report.success) {
       have_f = true;
       geometry.F = report.model;
@@ -96,10 +108,10 @@ TwoViewGeometry EstimateCore(const std::vector<Eigen::Vector2d>& p1,
     // H can only win GRIC when it explains most of F's inliers (an H
     // residual costs up to twice an F residual): searching for an H with
     // less than half of them is wasted time on general scenes.
-    RansacOptions ransac_h = ransac;
+    RansacOptions ransac_h = at_least(ransac, options.min_num_inliers_h);
     if (have_f) {
       ransac_h.min_inlier_ratio = std::max(
-          ransac.min_inlier_ratio, 0.5 * geometry.num_inliers_f / static_cast<double>(n));
+          ransac_h.min_inlier_ratio, 0.5 * geometry.num_inliers_f / static_cast<double>(n));
     }
     const auto report = EstimateHomographyMatrix(p1, p2, ransac_h);
     if (report.success) {
@@ -110,7 +122,7 @@ TwoViewGeometry EstimateCore(const std::vector<Eigen::Vector2d>& p1,
     }
   }
   if (calibration != nullptr && n >= EssentialEstimator::kMinSampleSize) {
-    RansacOptions ransac_e = ransac;
+    RansacOptions ransac_e = at_least(ransac, options.min_num_inliers_f);
     const double focal = 0.25 * (calibration->K1(0, 0) + calibration->K1(1, 1) +
                                  calibration->K2(0, 0) + calibration->K2(1, 1));
     ransac_e.max_error = options.max_error_px / focal;

@@ -175,6 +175,8 @@ TEST_CASE("Every ablation switch still registers the capture accurately") {
        [](Engine::Options* o) { o->registration.lsm_densification = false; }},
       {"plain local BA", [](Engine::Options* o) { o->hierarchical_weights = false; }},
       {"exhaustive retrieval", [](Engine::Options* o) { o->retrieval.use_tree = false; }},
+      {"no track completion or merging",
+       [](Engine::Options* o) { o->triangulation.complete_and_merge_tracks = false; }},
   };
   for (const auto& [name, apply] : switches) {
     INFO(name);

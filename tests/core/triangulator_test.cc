@@ -144,22 +144,28 @@ TEST_CASE("A pair too close to triangulate gets another try with a third ray") {
 
 TEST_CASE("Tracks are completed with matched keypoints of other registered images") {
   const testing::SyntheticScene scene = ArcScene();
-  SceneModel model = testing::MakeSceneModel(scene);
-  for (int i = 0; i < 3; ++i) testing::RegisterAtTruePose(scene, i, &model);
-  Triangulator triangulator(Triangulator::Options(), &model.matches, &model.reconstruction,
-                            NoColor());
   // Images 0 and 1 make the points; image 2 registered but never
-  // triangulated, so its keypoints observe nothing yet.
-  model.matches.SetMatches(SceneImageId(0), SceneImageId(2), {});
-  model.matches.SetMatches(SceneImageId(1), SceneImageId(2), {});
-  triangulator.TriangulateImage(SceneImageId(1));
-  CHECK(model.reconstruction.image(SceneImageId(2)).num_points3D == 0);
-  // Image 3 sees the points and is matched to all three: the tracks it
-  // continues pick up image 2 through its matches.
-  testing::RegisterAtTruePose(scene, 3, &model);
-  const Triangulator::Summary summary = triangulator.TriangulateImage(SceneImageId(3));
-  CHECK(summary.num_completed > 300);
+  // triangulated, so its keypoints observe nothing yet. Image 3 sees the
+  // points and is matched to all three: the tracks it continues pick up
+  // image 2 through its matches, unless completion is off.
+  const auto image3_completes = [&](bool complete_and_merge_tracks, SceneModel* model) {
+    for (int i = 0; i < 3; ++i) testing::RegisterAtTruePose(scene, i, model);
+    Triangulator::Options options;
+    options.complete_and_merge_tracks = complete_and_merge_tracks;
+    Triangulator triangulator(options, &model->matches, &model->reconstruction, NoColor());
+    model->matches.SetMatches(SceneImageId(0), SceneImageId(2), {});
+    model->matches.SetMatches(SceneImageId(1), SceneImageId(2), {});
+    triangulator.TriangulateImage(SceneImageId(1));
+    CHECK(model->reconstruction.image(SceneImageId(2)).num_points3D == 0);
+    testing::RegisterAtTruePose(scene, 3, model);
+    return triangulator.TriangulateImage(SceneImageId(3)).num_completed;
+  };
+  SceneModel model = testing::MakeSceneModel(scene);
+  CHECK(image3_completes(true, &model) > 300);
   CHECK(model.reconstruction.image(SceneImageId(2)).num_points3D > 300);
+  SceneModel without = testing::MakeSceneModel(scene);
+  CHECK(image3_completes(false, &without) == 0);
+  CHECK(without.reconstruction.image(SceneImageId(2)).num_points3D == 0);
 }
 
 }  // namespace
