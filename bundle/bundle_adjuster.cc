@@ -242,7 +242,8 @@ bool BundleAdjuster::Options::Check() const {
          sparse_schur_max_images >= dense_schur_max_images &&
          max_num_iterations > 0 && max_solver_time_seconds > 0 &&
          function_tolerance >= 0 && gradient_tolerance >= 0 &&
-         parameter_tolerance >= 0 && num_threads >= 1;
+         parameter_tolerance >= 0 && num_threads >= 1 && max_focal_length_change > 1 &&
+         max_principal_point_offset >= 0 && max_principal_point_offset < 0.5;
 }
 
 std::string BundleAdjuster::Summary::BriefReport() const {
@@ -376,10 +377,36 @@ BundleAdjuster::Summary BundleAdjuster::Solve(BundleProblem* problem) const {
     ordering->AddElementToGroup(params, 1);
     if (!camera_free[c]) {
       ceres_problem.SetParameterBlockConstant(params);
-    } else if (!constant_intrinsics[c].empty()) {
+      continue;
+    }
+    const Camera& camera = problem->cameras[c];
+    if (!constant_intrinsics[c].empty()) {
       intrinsics_manifolds.push_back(std::make_unique<ceres::SubsetManifold>(
-          problem->cameras[c].NumParams(), constant_intrinsics[c]));
+          camera.NumParams(), constant_intrinsics[c]));
       ceres_problem.SetManifold(params, intrinsics_manifolds.back().get());
+    }
+    const int num_focal = camera.NumFocalParams();
+    if (options_.refine_focal_length) {
+      for (int i = 0; i < num_focal; ++i) {
+        ceres_problem.SetParameterLowerBound(params, i,
+                                             params[i] / options_.max_focal_length_change);
+        ceres_problem.SetParameterUpperBound(params, i,
+                                             params[i] * options_.max_focal_length_change);
+      }
+    }
+    if (options_.refine_principal_point) {
+      const double size[2] = {double(camera.width), double(camera.height)};
+      for (int axis = 0; axis < 2; ++axis) {
+        // A start outside the bounds (a caller's camera) widens them: Ceres
+        // needs a feasible start.
+        const double pp = params[num_focal + axis];
+        const double centre = (size[axis] - 1) / 2;
+        const double reach = options_.max_principal_point_offset * size[axis];
+        ceres_problem.SetParameterLowerBound(params, num_focal + axis,
+                                             std::min(pp, centre - reach));
+        ceres_problem.SetParameterUpperBound(params, num_focal + axis,
+                                             std::max(pp, centre + reach));
+      }
     }
   }
 

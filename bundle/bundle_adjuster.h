@@ -26,6 +26,14 @@ class BundleAdjuster {
     bool refine_focal_length = false;
     bool refine_principal_point = false;
     bool refine_extra_params = false;
+    // Safeguards of refined intrinsics, as bounds of the solve: a focal
+    // length stays within this factor of its value at the start, and a
+    // principal point within this fraction of the image size of the image
+    // centre (where a lens puts it within a few per cent). A weakly
+    // constrained block (two views, a flat scene, a critical motion) cannot
+    // run off to a degenerate camera that the next images could not undo.
+    double max_focal_length_change = 1.5;
+    double max_principal_point_offset = 0.1;
 
     // What holds the 7-DoF similarity gauge of a free block.
     enum class Gauge {

@@ -96,6 +96,17 @@ class Engine {
     // 45 deg field of view, typical of the normal lenses photogrammetry
     // uses); refined in every BA either way.
     double unknown_focal_factor = 1.2;
+    // While guessed intrinsics are being refined, a global BA runs each time
+    // the model has grown by this factor since the last one, as COLMAP's
+    // mapper schedules its global BAs: the whole model follows a focal length
+    // that moves, where the local BA would bend it against the images it
+    // holds fixed. A camera is calibrated once three such BAs in a row move
+    // its focal length by less than `self_calibration_converged_change`
+    // (relative; a two-view model hardly constrains it); when every camera
+    // is, per-image cost is the local BA's again.
+    // Growth 0: no such BA.
+    double self_calibration_growth = 1.25;
+    double self_calibration_converged_change = 0.002;
 
     // True when every option is in range; otherwise false, and `problem`
     // (when given) names the first bad option.
@@ -153,6 +164,8 @@ class Engine {
   // any registers; each that does gets its result appended to `results`
   // (results[0], the new image, reports its own registration in place).
   void RetryPending(std::vector<ImageResult>* results);
+  // Step 10b: the scheduled global BA while guessed intrinsics converge.
+  void AdjustWhileSelfCalibrating(ImageResult* result);
   // Step 12: the images LSM will not search again keep only windows.
   void KeepLsmWindows();
   int NumRegisteredNeighbours(image_t image_id) const;
@@ -176,6 +189,11 @@ class Engine {
   std::map<std::tuple<int, int, std::string>, camera_t> camera_by_identity_;
   bool initialized_ = false;
   int num_rejected_ = 0;
+  // Cameras whose guessed intrinsics have not converged yet, each with the
+  // number of global BAs in a row that hardly moved its focal length; and
+  // the model size that triggers the next global BA.
+  std::map<camera_t, int> self_calibrating_;
+  std::size_t next_self_calibration_images_ = 0;
 };
 
 }  // namespace flysfm

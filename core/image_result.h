@@ -88,6 +88,8 @@ struct ImageResult {
   int ba_images = 0;
   int ba_points = 0;
   int ba_iterations = 0;
+  // A global BA ran as well (guessed intrinsics converging).
+  bool global_ba = false;
   // The model after this image.
   int model_images = 0;
   int model_points = 0;

@@ -40,7 +40,8 @@ nlohmann::json ToJson(const ImageResult& result) {
       {"ba", {{"free_images", result.ba_free_images},
               {"images", result.ba_images},
               {"points", result.ba_points},
-              {"iterations", result.ba_iterations}}},
+              {"iterations", result.ba_iterations},
+              {"global", result.global_ba}}},
       {"model_images", result.model_images},
       {"model_points", result.model_points}};
   if (result.image_id != kInvalidImageId) json["image_id"] = result.image_id;

@@ -220,6 +220,37 @@ TEST_CASE("A focal length 5% off is recovered when refined, and only it") {
   for (int i = 1; i < 4; ++i) CHECK(problem.cameras[0].params[i] == start[i]);
 }
 
+TEST_CASE("Refined intrinsics stay within their bounds; inside them they converge") {
+  // The truth: focal 500, principal point 30 px right of the centre (4.7 %
+  // of the width).
+  Camera camera = Camera::FromFocal(CameraModelId::kSimpleRadial, 500, 640, 480);
+  camera.params[1] += 30;
+  const testing::SyntheticScene scene = ArcScene(kNoisePx, 5, camera);
+  BundleProblem problem = PerturbedArcProblem(scene);
+  problem.cameras[0].params[1] -= 30;  // the start: the centre
+  BundleAdjuster::Options options;
+  options.refine_focal_length = true;
+  options.refine_principal_point = true;
+  SECTION("a focal length 30 % off with 1.2 allowed ends on its bound") {
+    problem.cameras[0].params[1] += 30;
+    problem.cameras[0].params[0] = 500 * 1.3;
+    options.max_focal_length_change = 1.2;
+    REQUIRE(BundleAdjuster(options).Solve(&problem).IsSolutionUsable());
+    CHECK(problem.cameras[0].params[0] == Approx(500 * 1.3 / 1.2).epsilon(1e-9));
+  }
+  SECTION("a principal point farther than allowed ends on its bound") {
+    options.max_principal_point_offset = 0.02;  // 12.8 px
+    REQUIRE(BundleAdjuster(options).Solve(&problem).IsSolutionUsable());
+    CHECK(problem.cameras[0].params[1] == Approx(319.5 + 12.8).epsilon(1e-9));
+  }
+  SECTION("the defaults") {
+    problem.cameras[0].params[0] = 500 * 1.05;
+    REQUIRE(BundleAdjuster(options).Solve(&problem).IsSolutionUsable());
+    CHECK(std::abs(problem.cameras[0].params[0] / 500 - 1) < 0.005);
+    CHECK(std::abs(problem.cameras[0].params[1] - camera.params[1]) < 1.0);
+  }
+}
+
 TEST_CASE("Every camera model converges to the exact noise-free solution") {
   const std::vector<std::string> models = {
       "SIMPLE_PINHOLE 500,320,240",
@@ -366,6 +397,12 @@ TEST_CASE("Options are checked") {
   CHECK_FALSE(options.Check());
   options = {};
   options.num_threads = 0;
+  CHECK_FALSE(options.Check());
+  options = {};
+  options.max_focal_length_change = 1;
+  CHECK_FALSE(options.Check());
+  options = {};
+  options.max_principal_point_offset = 0.5;
   CHECK_FALSE(options.Check());
 }
 

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <functional>
 #include <random>
 
@@ -85,6 +86,8 @@ TEST_CASE("The engine registers a rendered capture with accurate poses") {
   CheckAllRegisteredOnce(engine, run, Capture().frames.size());
   CHECK(engine.reconstruction().MeanReprojectionError() < 0.5);
   CHECK(CenterRmse(engine.reconstruction(), Capture()) < kCenterTolerance);
+  // Known intrinsics: nothing to converge, no global BA before Finish().
+  for (const ImageResult& result : run.All()) CHECK_FALSE(result.global_ba);
 }
 
 TEST_CASE("Image results: stage times add up, registrations carry their work, counts grow") {
@@ -227,6 +230,31 @@ TEST_CASE("Without intrinsics the engine self-calibrates the focal length") {
   CHECK(CenterRmse(model, Capture()) < 2 * kCenterTolerance);
 }
 
+TEST_CASE("Guessed intrinsics get a global BA each time the model grows by a quarter") {
+  Engine engine{Engine::Options()};
+  const Run run = Feed(&engine, Capture().frames);
+  std::vector<int> model_sizes;
+  for (const ImageResult& result : run.All()) {
+    if (result.global_ba) model_sizes.push_back(result.model_images);
+  }
+  REQUIRE_FALSE(model_sizes.empty());
+  CHECK(model_sizes.front() <= 3);
+  // Geometric, so their total cost is a constant factor of the last one's;
+  // one more for the two-view start.
+  const double num_images = double(Capture().frames.size());
+  CHECK(double(model_sizes.size()) <=
+        2 + std::ceil(std::log(num_images / 2) /
+                      std::log(Engine::Options().self_calibration_growth)));
+  SECTION("switched off") {
+    Engine::Options options;
+    options.self_calibration_growth = 0;
+    Engine off(options);
+    for (const ImageResult& result : Feed(&off, Capture().frames).All()) {
+      CHECK_FALSE(result.global_ba);
+    }
+  }
+}
+
 TEST_CASE("Two camera bodies, as their EXIF tells them, get a camera each") {
   // The same capture as if shot alternately by two bodies of one model:
   // each self-calibrates on its own images.
@@ -313,6 +341,9 @@ TEST_CASE("Invalid options are refused, naming the option") {
   options = Engine::Options();
   options.lsm_images.num_pyramid_levels = 1;
   CHECK_THROWS_WITH(Engine(options), Catch::Contains("num_pyramid_levels"));
+  options = Engine::Options();
+  options.self_calibration_growth = 1;
+  CHECK_THROWS_WITH(Engine(options), Catch::Contains("self_calibration_growth"));
 }
 
 }  // namespace

@@ -56,5 +56,23 @@ std::vector<std::uint8_t> JpegWithExif(const cv::Mat& image, const ExifTags& tag
   return jpeg;
 }
 
+std::vector<std::uint8_t> WithoutExif(const std::vector<std::uint8_t>& jpeg) {
+  if (jpeg.size() < 4 || jpeg[0] != 0xFF || jpeg[1] != 0xD8) {
+    throw std::invalid_argument("not a JPEG");
+  }
+  std::vector<std::uint8_t> out = {0xFF, 0xD8};
+  std::size_t at = 2;
+  // Marker segments up to the first scan; everything from there is copied.
+  while (at + 4 <= jpeg.size() && jpeg[at] == 0xFF && jpeg[at + 1] != 0xDA) {
+    const std::size_t length = std::size_t(jpeg[at + 2]) << 8 | jpeg[at + 3];
+    if (length < 2 || at + 2 + length > jpeg.size()) throw std::invalid_argument("bad JPEG segment");
+    if (jpeg[at + 1] != 0xE1) out.insert(out.end(), jpeg.begin() + at, jpeg.begin() + at + 2 + length);
+    at += 2 + length;
+  }
+  if (at + 2 > jpeg.size() || jpeg[at] != 0xFF) throw std::invalid_argument("no JPEG scan");
+  out.insert(out.end(), jpeg.begin() + at, jpeg.end());
+  return out;
+}
+
 }  // namespace testing
 }  // namespace flysfm

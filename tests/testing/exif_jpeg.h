@@ -25,5 +25,10 @@ struct ExifTags {
 // `image` encoded as JPEG with an EXIF APP1 segment holding `tags`.
 std::vector<std::uint8_t> JpegWithExif(const cv::Mat& image, const ExifTags& tags);
 
+// The same JPEG without its APP1 (EXIF, XMP) segments: a camera that writes
+// none, with the same pixels. Throws std::invalid_argument on a malformed
+// marker sequence.
+std::vector<std::uint8_t> WithoutExif(const std::vector<std::uint8_t>& jpeg);
+
 }  // namespace testing
 }  // namespace flysfm
