@@ -25,6 +25,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "core/ablation.h"
 #include "core/engine.h"
 #include "io/evaluation/evaluation.h"
 #include "io/formats/trajectory.h"
@@ -188,22 +189,11 @@ int main(int argc, char** argv) {
 
   nlohmann::json json = {{"bench", "engine"}, {"full", ToJson(full)}};
   if (ablation) {
-    const std::vector<std::pair<std::string, std::function<void(Engine::Options*)>>> variants = {
-        {"no LSM refinement",
-         [](Engine::Options* o) { o->verification.lsm_refinement = false; }},
-        {"no LSM densification",
-         [](Engine::Options* o) { o->registration.lsm_densification = false; }},
-        {"plain local BA (no weights)",
-         [](Engine::Options* o) { o->hierarchical_weights = false; }},
-        {"exhaustive retrieval", [](Engine::Options* o) { o->retrieval.use_tree = false; }},
-        {"no track completion or merging",
-         [](Engine::Options* o) { o->triangulation.complete_and_merge_tracks = false; }},
-    };
     std::vector<Run> runs = {full};
-    for (const auto& [name, change] : variants) {
+    for (const EngineAblation& ablation : EngineAblations()) {
       Engine::Options options;
-      change(&options);
-      runs.push_back(RunEngineOn(name, options, frames, truth, false));
+      ablation.apply(&options);
+      runs.push_back(RunEngineOn(ablation.name, options, frames, truth, false));
     }
     std::printf("\n| configuration | registered | ATE RMSE (cm) | reprojection (px) | "
                 "track length | median engine ms | median all-stages ms |\n"

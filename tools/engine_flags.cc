@@ -7,6 +7,7 @@
 #include <map>
 #include <optional>
 
+#include "core/ablation.h"
 #include "io/sources/prepared_source.h"
 #include "retrieval/retrieval_model.h"
 
@@ -29,14 +30,9 @@ void AddEngineFlags(CLI::App* command, EngineFlags* flags) {
   command->add_option("--retrieval-model", flags->retrieval_model,
                       "Retrieval model from `flysfm train-retrieval`. Default: "
                       "bootstrapped from the session's own images");
-  command->add_flag("--no-lsm-refinement", flags->no_lsm_refinement,
-                    "Ablation: keep raw SIFT positions (no LSM refinement)");
-  command->add_flag("--no-lsm-densification", flags->no_lsm_densification,
-                    "Ablation: no LSM densification of 2D-3D correspondences");
-  command->add_flag("--no-hierarchical-weights", flags->no_hierarchical_weights,
-                    "Ablation: plain local BA of the association tree's images");
-  command->add_flag("--exhaustive-retrieval", flags->exhaustive_retrieval,
-                    "Ablation: exhaustive global-descriptor search, no vocabulary tree");
+  for (const EngineAblation& ablation : EngineAblations()) {
+    command->add_flag(ablation.flag, flags->ablations[ablation.flag], ablation.help);
+  }
   command->add_flag("--no-global-ba", flags->no_global_ba,
                     "Skip the global bundle adjustment at the end");
   command->add_option("--refresh-seconds", flags->refresh_seconds,
@@ -47,10 +43,10 @@ void AddEngineFlags(CLI::App* command, EngineFlags* flags) {
 
 Engine EngineFlags::MakeEngine() const {
   Engine::Options options;
-  options.verification.lsm_refinement = !no_lsm_refinement;
-  options.registration.lsm_densification = !no_lsm_densification;
-  options.hierarchical_weights = !no_hierarchical_weights;
-  options.retrieval.use_tree = !exhaustive_retrieval;
+  for (const EngineAblation& ablation : EngineAblations()) {
+    const auto it = ablations.find(ablation.flag);
+    if (it != ablations.end() && it->second) ablation.apply(&options);
+  }
   options.final_global_ba = !no_global_ba;
   std::optional<Camera> known_camera;
   if (!camera.empty()) known_camera = Camera::FromString(camera, 0, 0);

@@ -3,6 +3,7 @@
 // Options shared by the commands that run the engine (batch, demo, live):
 // the camera, the retrieval model, the ablation switches and the output.
 
+#include <map>
 #include <optional>
 #include <string>
 
@@ -17,10 +18,8 @@ namespace flysfm {
 struct EngineFlags {
   std::string camera;           // "MODEL p1,p2,..."; empty: unknown
   std::string retrieval_model;  // file from train-retrieval; empty: bootstrap
-  bool no_lsm_refinement = false;
-  bool no_lsm_densification = false;
-  bool no_hierarchical_weights = false;
-  bool exhaustive_retrieval = false;
+  // Per EngineAblations() flag, whether it was given.
+  std::map<std::string, bool> ablations;
   bool no_global_ba = false;
   std::string out;
   double refresh_seconds = 2.0;

@@ -9,6 +9,7 @@
 #include <catch2/catch.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "core/ablation.h"
 #include "io/evaluation/evaluation.h"
 #include "io/synthetic/synthetic_source.h"
 #include "tests/testing/exif_jpeg.h"
@@ -172,19 +173,10 @@ TEST_CASE("A shuffled capture waits in the pending pool and registers in full, d
 }
 
 TEST_CASE("Every ablation switch still registers the capture accurately") {
-  const std::vector<std::pair<const char*, std::function<void(Engine::Options*)>>> switches = {
-      {"no LSM refinement", [](Engine::Options* o) { o->verification.lsm_refinement = false; }},
-      {"no LSM densification",
-       [](Engine::Options* o) { o->registration.lsm_densification = false; }},
-      {"plain local BA", [](Engine::Options* o) { o->hierarchical_weights = false; }},
-      {"exhaustive retrieval", [](Engine::Options* o) { o->retrieval.use_tree = false; }},
-      {"no track completion or merging",
-       [](Engine::Options* o) { o->triangulation.complete_and_merge_tracks = false; }},
-  };
-  for (const auto& [name, apply] : switches) {
-    INFO(name);
+  for (const EngineAblation& ablation : EngineAblations()) {
+    INFO(ablation.name);
     Engine::Options options;
-    apply(&options);
+    ablation.apply(&options);
     Engine engine(options, Capture().camera);
     const Run run = Feed(&engine, Capture().frames);
     CheckAllRegisteredOnce(engine, run, Capture().frames.size());
