@@ -222,6 +222,27 @@ TEST_CASE("Without intrinsics the engine self-calibrates the focal length") {
   CHECK(CenterRmse(model, Capture()) < 2 * kCenterTolerance);
 }
 
+TEST_CASE("A wrong EXIF focal length, half or double the true one, is recovered") {
+  // The true 500 px on 640 x 480 is a 27 mm equivalent; the EXIF says 54 mm
+  // (998 px) or 14 mm (259 px), as a body that reports the wrong lens does.
+  for (const int equivalent_mm : {54, 14}) {
+    INFO(equivalent_mm << " mm");
+    std::vector<Frame> frames = Capture().frames;
+    for (Frame& frame : frames) {
+      frame.bytes = testing::JpegWithExif(cv::imdecode(frame.bytes, cv::IMREAD_COLOR),
+                                          {{{EXIF_TAG_FOCAL_LENGTH_IN_35MM_FILM, equivalent_mm}}, {}});
+    }
+    Engine engine{Engine::Options()};
+    const Run run = Feed(&engine, frames);
+    CheckAllRegisteredOnce(engine, run, frames.size());
+    const Reconstruction& model = engine.reconstruction();
+    REQUIRE(model.cameras().size() == 1);
+    CHECK(model.cameras().begin()->second.MeanFocalLength() ==
+          Approx(Capture().camera.MeanFocalLength()).epsilon(0.02));
+    CHECK(CenterRmse(model, Capture()) < 2 * kCenterTolerance);
+  }
+}
+
 TEST_CASE("Guessed intrinsics get a global BA each time the model grows by a quarter") {
   Engine engine{Engine::Options()};
   const Run run = Feed(&engine, Capture().frames);
