@@ -24,14 +24,14 @@ TEST_CASE("CamfiHttp sends %2F as is and reports failures") {
   CamfiEmulator emulator(options);
   emulator.Shoot();
   const CamfiHttp http("127.0.0.1", emulator.http_port(), "");
-  const HttpResult raw = http.Get("/raw/" + EncodeDevicePath(emulator.DevicePath(0)), 2);
+  const HttpResult raw = http.Get("/raw/" + EncodeDevicePath(emulator.DevicePath(0)), testing::kQuickCall);
   CHECK(raw.status == 200);
   CHECK(raw.error.empty());
   CHECK(raw.content_length == (long long)raw.body.size());
   CHECK(emulator.RequestLog().back() ==
         "GET /raw/%2Fstore_00010001%2FDCIM%2F100CANON%2FIMG_0001.JPG");
-  CHECK(http.Get("/raw/%2Fno%2Fsuch.JPG", 2).status == 500);
-  CHECK(http.Post("/tether/start", 2).status == 200);
+  CHECK(http.Get("/raw/%2Fno%2Fsuch.JPG", testing::kQuickCall).status == 500);
+  CHECK(http.Post("/tether/start", testing::kQuickCall).status == 200);
 }
 
 TEST_CASE("CamfiHttp reports a refused connection as an error and no status") {
@@ -45,7 +45,7 @@ TEST_CASE("CamfiHttp reports a refused connection as an error and no status") {
     CamfiEmulator emulator(options);
     port = emulator.http_port();
   }
-  const HttpResult result = CamfiHttp("127.0.0.1", port, "").Get("/info", 1);
+  const HttpResult result = CamfiHttp("127.0.0.1", port, "").Get("/info", testing::kQuickCall);
   CHECK(result.status == 0);
   CHECK_FALSE(result.error.empty());
 }
