@@ -294,8 +294,8 @@ void CamfiSource::RunSession() {
     std::string problem;
     const std::optional<nlohmann::json> body =
         ParseBoundedJson(camera.BodyText(), options_.max_json_depth, &problem);
-    if (!body || !body->is_object() || !body->contains("model") ||
-        !(*body)["model"].is_string() || (*body)["model"].get<std::string>().empty()) {
+    if (!body || !body->is_object() || !body->contains("model") || !(*body)["model"].is_string() ||
+        (*body)["model"].get<std::string>().empty()) {
       Log("no camera connected to the transmitter yet");
     }
   }
@@ -310,10 +310,9 @@ void CamfiSource::RunSession() {
     throw std::runtime_error("no baseline listing of the card yet");
   }
 
-  WebSocket socket = WebSocket::Connect(options_.host, options_.event_port,
-                                        EngineIoResource(options_.engine_io_version),
-                                        int(1000 * options_.control_timeout),
-                                        options_.max_event_message_bytes);
+  WebSocket socket = WebSocket::Connect(
+      options_.host, options_.event_port, EngineIoResource(options_.engine_io_version),
+      int(1000 * options_.control_timeout), options_.max_event_message_bytes);
   // A message the socket refused (over the bound, bad framing) is counted
   // before the session ends on it.
   const auto closed = [&] {
@@ -420,9 +419,9 @@ bool CamfiSource::Reconcile(bool baseline) {
   }
   std::optional<std::vector<std::string>> page;
   do {
-    const HttpResult answer = http_.Get("/files/" + std::to_string(listing.next_start()) + "/" +
-                                            std::to_string(options_.list_page),
-                                        limits, &stopping_);
+    const HttpResult answer = http_.Get(
+        "/files/" + std::to_string(listing.next_start()) + "/" + std::to_string(options_.list_page),
+        limits, &stopping_);
     std::string problem;
     if (answer.status != 200) {
       problem = Describe(answer);
@@ -537,8 +536,7 @@ CamfiSource::Fetch CamfiSource::Download(const std::string& device_path,
     std::string not_json;
     const std::optional<nlohmann::json> body =
         ParseBoundedJson(result.BodyText(), options_.max_json_depth, &not_json);
-    if (body && body->is_object() && body->contains("message") &&
-        (*body)["message"].is_string()) {
+    if (body && body->is_object() && body->contains("message") && (*body)["message"].is_string()) {
       problem += " (" + (*body)["message"].get<std::string>() + ")";
     }
   } else if (result.content_length >= 0 &&
@@ -631,10 +629,9 @@ bool CamfiSource::Keep(const Pending& item, const std::vector<std::uint8_t>& byt
       return true;
     }
     std::string error;
-    if (!journal_->Append(
-            FormatJournalRecord(
-                JournalRecord::Stored(item.device_path, name, bytes.size(), id.sha1)),
-            &error)) {
+    if (!journal_->Append(FormatJournalRecord(
+                              JournalRecord::Stored(item.device_path, name, bytes.size(), id.sha1)),
+                          &error)) {
       lock.unlock();
       return fail(error);
     }

@@ -120,22 +120,22 @@ struct CamfiStats {
   int duplicate_events = 0;  // file_added for a path being fetched, or for
                              // bytes already stored under its path
   int found_by_listing = 0;  // new paths found by /files, not by an event
-  int download_failures = 0; // attempts rejected (HTTP error, cut, bad bytes,
-                             // over a bound)
+  int download_failures = 0;  // attempts rejected (HTTP error, cut, bad bytes,
+                              // over a bound)
   int stored = 0;            // shots written to the store this run
   int replayed = 0;          // shots handed on again from the journal
   int rechecked = 0;         // known paths fetched again to compare bytes
   int reused_paths = 0;      // new shots at a known path (card swap, numbering reset)
   int listing_failures = 0;  // listings that failed; retried at the next reconcile
-  int truncated_listings = 0;  // listings stopped by max_list_pages
-  int oversized = 0;         // bodies over max_shot_bytes / max_body_bytes
-  int timed_out_downloads = 0; // downloads over the idle or total time
-  int rejected_packets = 0;  // event messages over the size bound, bad framing,
-                             // malformed or too deep event packets
-  int store_failures = 0;    // shots or records not written (disk full); the
-                             // shot stays to fetch
-  int journal_skipped = 0;   // malformed journal records skipped at start
-  int journal_torn = 0;      // journals whose last record a crash cut short
+  int truncated_listings = 0;   // listings stopped by max_list_pages
+  int oversized = 0;            // bodies over max_shot_bytes / max_body_bytes
+  int timed_out_downloads = 0;  // downloads over the idle or total time
+  int rejected_packets = 0;     // event messages over the size bound, bad framing,
+                                // malformed or too deep event packets
+  int store_failures = 0;       // shots or records not written (disk full); the
+                                // shot stays to fetch
+  int journal_skipped = 0;      // malformed journal records skipped at start
+  int journal_torn = 0;         // journals whose last record a crash cut short
 };
 
 class CamfiSource : public ImageSource {
@@ -160,9 +160,9 @@ class CamfiSource : public ImageSource {
  private:
   // How a path came to be offered.
   enum class Trigger {
-    kEvent,     // file_added
-    kListed,       // in a listing
-    kReappeared,   // in a listing, after a complete one did not show it
+    kEvent,       // file_added
+    kListed,      // in a listing
+    kReappeared,  // in a listing, after a complete one did not show it
   };
   enum class Fetch { kOk, kFailed, kTooLarge };
   struct ShotId {

@@ -27,11 +27,11 @@ namespace {
 
 const std::vector<std::pair<CamfiFault, std::string>>& FaultTable() {
   static const std::vector<std::pair<CamfiFault, std::string>> table = {
-      {CamfiFault::kDropSocket, "drop-socket"}, {CamfiFault::kStall, "stall"},
-      {CamfiFault::kDuplicate, "duplicate"},    {CamfiFault::kMissing, "missing"},
+      {CamfiFault::kDropSocket, "drop-socket"},  {CamfiFault::kStall, "stall"},
+      {CamfiFault::kDuplicate, "duplicate"},     {CamfiFault::kMissing, "missing"},
       {CamfiFault::kOutOfOrder, "out-of-order"}, {CamfiFault::kTruncate, "truncate"},
-      {CamfiFault::kHttp500, "http500"},        {CamfiFault::kAuth, "auth"},
-      {CamfiFault::kLegacyInfo, "legacy-info"}, {CamfiFault::kTrickle, "trickle"}};
+      {CamfiFault::kHttp500, "http500"},         {CamfiFault::kAuth, "auth"},
+      {CamfiFault::kLegacyInfo, "legacy-info"},  {CamfiFault::kTrickle, "trickle"}};
   return table;
 }
 
@@ -79,9 +79,9 @@ bool CamfiEmulatorOptions::Check() const {
   const auto valid_port = [](int port) { return port >= 0 && port < 65536; };
   return !images.empty() && valid_port(http_port) && valid_port(event_port) &&
          interval_seconds >= 0 && ping_interval_ms > 0 && ping_timeout_ms > 0 &&
-         (engine_io_version == 3 || engine_io_version == 4) && fault_every > 0 &&
-         !store.empty() && store.front() == '/' && folder_size > 0 &&
-         folder_size <= 9999 && files_page_limit >= 0 && files_failures >= 0;
+         (engine_io_version == 3 || engine_io_version == 4) && fault_every > 0 && !store.empty() &&
+         store.front() == '/' && folder_size > 0 && folder_size <= 9999 && files_page_limit >= 0 &&
+         files_failures >= 0;
 }
 
 struct CamfiEmulator::Connection {
@@ -208,27 +208,27 @@ void CamfiEmulator::SetUpRoutes() {
                       {{"status",
                         {{"children", {{"cameramodel", {{"value", "Emulated EOS"}}}}}}}}}}}});
   });
-  server_->Get(R"(/files/(\d+)/(\d+))", [this](const httplib::Request& req,
-                                                httplib::Response& res) {
-    const std::size_t start = options_.files_ignore_start ? 0 : std::stoul(req.matches[1]);
-    std::size_t count = std::stoul(req.matches[2]);
-    if (options_.files_page_limit > 0) {
-      count = std::min(count, std::size_t(options_.files_page_limit));
-    }
-    nlohmann::json list = nlohmann::json::array();
-    std::lock_guard<std::mutex> lock(mutex_);
-    if (files_failures_left_ > 0) {
-      --files_failures_left_;
-      ++stats_.files_failed;
-      res.status = options_.files_failure_status;
-      res.set_content(options_.files_failure_body, "application/json");
-      return;
-    }
-    for (std::size_t i = start; i < card_.size() && i < start + count; ++i) {
-      list.push_back(card_[i]);
-    }
-    SendJson(res, list);
-  });
+  server_->Get(
+      R"(/files/(\d+)/(\d+))", [this](const httplib::Request& req, httplib::Response& res) {
+        const std::size_t start = options_.files_ignore_start ? 0 : std::stoul(req.matches[1]);
+        std::size_t count = std::stoul(req.matches[2]);
+        if (options_.files_page_limit > 0) {
+          count = std::min(count, std::size_t(options_.files_page_limit));
+        }
+        nlohmann::json list = nlohmann::json::array();
+        std::lock_guard<std::mutex> lock(mutex_);
+        if (files_failures_left_ > 0) {
+          --files_failures_left_;
+          ++stats_.files_failed;
+          res.status = options_.files_failure_status;
+          res.set_content(options_.files_failure_body, "application/json");
+          return;
+        }
+        for (std::size_t i = start; i < card_.size() && i < start + count; ++i) {
+          list.push_back(card_[i]);
+        }
+        SendJson(res, list);
+      });
   const auto serve_file = [this](const std::string& route) {
     return [this, route](const httplib::Request& req, httplib::Response& res) {
       // Routed on the target as received, not on httplib's decoded path:

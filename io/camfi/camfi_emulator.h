@@ -30,16 +30,16 @@ class Server;
 namespace flysfm {
 
 enum class CamfiFault {
-  kDropSocket,   // event channels closed just before the shot's event
-  kStall,        // event channels go silent (no pong, no event), TCP stays up
-  kDuplicate,    // the shot's event is sent twice
-  kMissing,      // the shot's event is never sent
-  kOutOfOrder,   // the shot's event is sent after the next shot's
-  kTruncate,     // the first download of the shot stops half way
-  kHttp500,      // the first download of the shot answers 500
-  kAuth,         // every HTTP call needs user CamFi and the password
-  kLegacyInfo,   // /info answers 404 (firmware 1.0.0.0)
-  kTrickle,      // the first download of the shot sends one byte a second
+  kDropSocket,  // event channels closed just before the shot's event
+  kStall,       // event channels go silent (no pong, no event), TCP stays up
+  kDuplicate,   // the shot's event is sent twice
+  kMissing,     // the shot's event is never sent
+  kOutOfOrder,  // the shot's event is sent after the next shot's
+  kTruncate,    // the first download of the shot stops half way
+  kHttp500,     // the first download of the shot answers 500
+  kAuth,        // every HTTP call needs user CamFi and the password
+  kLegacyInfo,  // /info answers 404 (firmware 1.0.0.0)
+  kTrickle,     // the first download of the shot sends one byte a second
 };
 
 // "drop-socket", "stall", "duplicate", "missing", "out-of-order",

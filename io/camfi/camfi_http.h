@@ -50,8 +50,8 @@ class CamfiHttp {
   HttpResult Post(const std::string& target, const HttpLimits& limits) const;
 
  private:
-  HttpResult Perform(const std::string& method, const std::string& target,
-                     const HttpLimits& limits, const std::atomic<bool>* abort) const;
+  HttpResult Perform(const std::string& method, const std::string& target, const HttpLimits& limits,
+                     const std::atomic<bool>* abort) const;
 
   std::string base_url_;
   std::string password_;

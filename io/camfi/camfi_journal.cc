@@ -51,8 +51,8 @@ bool IsSha1(std::string_view text) {
 
 // A store name is joined to the store folder: it must stay inside it.
 bool IsFileName(const std::string& name) {
-  return !name.empty() && name != "." && name != ".." &&
-         name.find('/') == std::string::npos && name.find('\0') == std::string::npos;
+  return !name.empty() && name != "." && name != ".." && name.find('/') == std::string::npos &&
+         name.find('\0') == std::string::npos;
 }
 
 // The record on `line`, or nullopt with `*why`.
@@ -144,8 +144,8 @@ std::string FormatJournalRecord(const JournalRecord& record) {
       return "ignored\t" + EscapeJournalField(record.device_path) + "\n";
     case JournalRecord::Kind::kStored:
       return "stored\t" + EscapeJournalField(record.device_path) + "\t" +
-             EscapeJournalField(record.store_name) + "\t" + std::to_string(record.bytes) +
-             "\t" + EscapeJournalField(record.sha1) + "\n";
+             EscapeJournalField(record.store_name) + "\t" + std::to_string(record.bytes) + "\t" +
+             EscapeJournalField(record.sha1) + "\n";
   }
   return "";
 }
@@ -201,8 +201,8 @@ bool JournalFile::Append(const std::string& records, std::string* error) {
   std::size_t written = 0;
   int failure = fault;
   while (written < size) {
-    const ssize_t n = ::pwrite(fd_, records.data() + written, size - written,
-                               off_t(size_ + written));
+    const ssize_t n =
+        ::pwrite(fd_, records.data() + written, size - written, off_t(size_ + written));
     if (n < 0 && errno == EINTR) continue;
     if (n <= 0) {
       failure = n < 0 ? errno : EIO;
@@ -217,8 +217,8 @@ bool JournalFile::Append(const std::string& records, std::string* error) {
   *error = "cannot append to " + path_.string() + ": " + std::strerror(failure);
   // Half a record would glue the next one onto it.
   if (::ftruncate(fd_, off_t(size_)) != 0) {
-    *error += "; cutting the half-written record off failed too: " +
-              std::string(std::strerror(errno));
+    *error +=
+        "; cutting the half-written record off failed too: " + std::string(std::strerror(errno));
   }
   return false;
 }

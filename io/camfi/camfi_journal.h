@@ -37,8 +37,8 @@ struct JournalRecord {
     record.device_path = std::move(device_path);
     return record;
   }
-  static JournalRecord Stored(std::string device_path, std::string store_name,
-                              std::uint64_t bytes, std::string sha1) {
+  static JournalRecord Stored(std::string device_path, std::string store_name, std::uint64_t bytes,
+                              std::string sha1) {
     JournalRecord record = Ignored(std::move(device_path));
     record.kind = Kind::kStored;
     record.store_name = std::move(store_name);
@@ -79,8 +79,8 @@ class JournalFile {
   // Reads `path` (missing: empty) into `*contents`, cuts a torn last line off
   // the file (`*torn_bytes`: how many bytes) and opens it for appending.
   // Throws std::runtime_error naming the path when that fails.
-  JournalFile(const std::filesystem::path& path, WriteFault write_fault,
-              JournalContents* contents, std::size_t* torn_bytes);
+  JournalFile(const std::filesystem::path& path, WriteFault write_fault, JournalContents* contents,
+              std::size_t* torn_bytes);
   ~JournalFile();
   JournalFile(const JournalFile&) = delete;
   JournalFile& operator=(const JournalFile&) = delete;

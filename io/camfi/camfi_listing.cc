@@ -4,8 +4,7 @@
 
 namespace flysfm {
 
-std::optional<std::vector<std::string>> ParseFilesPage(const std::string& body,
-                                                       int max_json_depth,
+std::optional<std::vector<std::string>> ParseFilesPage(const std::string& body, int max_json_depth,
                                                        std::string* problem) {
   const std::optional<nlohmann::json> list = ParseBoundedJson(body, max_json_depth, problem);
   if (!list) return std::nullopt;

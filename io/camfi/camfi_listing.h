@@ -17,8 +17,7 @@ namespace flysfm {
 // The paths of one /files page, or nullopt with `*problem` set when the body
 // is not a JSON array of strings (a busy camera's error page, a truncated
 // body, nesting deeper than `max_json_depth`).
-std::optional<std::vector<std::string>> ParseFilesPage(const std::string& body,
-                                                       int max_json_depth,
+std::optional<std::vector<std::string>> ParseFilesPage(const std::string& body, int max_json_depth,
                                                        std::string* problem);
 
 // One listing, page by page: the next page starts after the paths received

@@ -25,7 +25,7 @@ class WebSocketReader {
     kPing,      // a ping; its payload is to be echoed in a pong
     kPong,
     kClose,
-    kError,     // a protocol violation or a message over the bound
+    kError,  // a protocol violation or a message over the bound
   };
 
   explicit WebSocketReader(std::size_t max_message_bytes = kDefaultMaxWebSocketMessageBytes)

@@ -68,15 +68,13 @@ JournalContents ReadJournal(const std::filesystem::path& store) {
 }
 
 int NumJournalled(const JournalContents& contents) {
-  return int(std::count_if(contents.records.begin(), contents.records.end(), [](const auto& r) {
-    return r.kind == JournalRecord::Kind::kStored;
-  }));
+  return int(std::count_if(contents.records.begin(), contents.records.end(),
+                           [](const auto& r) { return r.kind == JournalRecord::Kind::kStored; }));
 }
 
 // Waits up to `seconds` for `done`; false when it never held.
 bool WaitFor(const std::function<bool()>& done, double seconds) {
-  const auto deadline =
-      std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
   while (!done()) {
     if (std::chrono::steady_clock::now() > deadline) return false;
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
@@ -323,8 +321,8 @@ TEST_CASE("camfi: a full disk rejects the shot, and shots flow again once space 
     CHECK(source.stats().session_failures == 0);
     CHECK(NumImageFiles(store) == 0);
     full = false;
-    const std::vector<Frame> frames =
-        testing::PullFrames(&source, [&] { source.Stop(); }, 3, 10);
+    const std::vector<Frame> frames = testing::PullFrames(
+        &source, [&] { source.Stop(); }, 3, 10);
     REQUIRE(frames.size() == 3);
     for (int i = 0; i < 3; ++i) {
       CHECK(ReadFileBytes(store / StoreNameForDevicePath(emulator.DevicePath(i))) ==
@@ -360,13 +358,16 @@ TEST_CASE("camfi: a swapped card's shots under known paths are new shots") {
     REQUIRE(WaitFor([&] { return source.stats().sessions > 0; }, 5));
     emulator.Shoot();
     emulator.Shoot();
-    REQUIRE(testing::PullFrames(&source, [&] { source.Stop(); }, 2, 5).size() == 2);
+    REQUIRE(testing::PullFrames(
+                &source, [&] { source.Stop(); }, 2, 5)
+                .size() == 2);
     emulator.SwapCard();
     // A listing of the empty card.
     std::this_thread::sleep_for(std::chrono::milliseconds(600));
     emulator.Shoot();
     emulator.Shoot();
-    const std::vector<Frame> frames = testing::PullFrames(&source, [&] { source.Stop(); }, 2, 5);
+    const std::vector<Frame> frames = testing::PullFrames(
+        &source, [&] { source.Stop(); }, 2, 5);
     REQUIRE(frames.size() == 2);
     // Same device paths as the first card's shots, new bytes, new names.
     CHECK(frames[0].name == StoreNameForDevicePath(emulator.DevicePath(0), 2));
@@ -395,7 +396,9 @@ TEST_CASE("camfi: a device that pages by less than asked is listed to the end") 
   CamfiOptions options = FastClient(emulator);
   options.fetch_existing = true;
   CamfiSource source(options, dir / "store");
-  CHECK(testing::PullFrames(&source, [&] { source.Stop(); }, 8, 5).size() == 8);
+  CHECK(testing::PullFrames(
+            &source, [&] { source.Stop(); }, 8, 5)
+            .size() == 8);
   CHECK(source.stats().found_by_listing == 8);
 }
 
@@ -412,10 +415,14 @@ TEST_CASE("camfi: a device that ignores start does not loop the listing") {
   options.list_page = 2;  // every page full
   options.reconcile_seconds = 0.2;
   CamfiSource source(options, dir / "store");
-  REQUIRE(testing::PullFrames(&source, [&] { source.Stop(); }, 2, 5).size() == 2);
+  REQUIRE(testing::PullFrames(
+              &source, [&] { source.Stop(); }, 2, 5)
+              .size() == 2);
   // Events are still handled: the session is live, not listing.
   emulator.Shoot();
-  CHECK(testing::PullFrames(&source, [&] { source.Stop(); }, 1, 5).size() == 1);
+  CHECK(testing::PullFrames(
+            &source, [&] { source.Stop(); }, 1, 5)
+            .size() == 1);
   const std::vector<std::string> log = emulator.RequestLog();
   const auto listings = std::count_if(log.begin(), log.end(), [](const std::string& line) {
     return line.rfind("GET /files/", 0) == 0;
@@ -446,7 +453,9 @@ TEST_CASE("camfi: a failing listing is counted and retried, the session goes on"
     options.fetch_existing = true;
     options.reconcile_seconds = 0.2;
     CamfiSource source(options, dir / "store");
-    CHECK(testing::PullFrames(&source, [&] { source.Stop(); }, 2, 8).size() == 2);
+    CHECK(testing::PullFrames(
+              &source, [&] { source.Stop(); }, 2, 8)
+              .size() == 2);
     CHECK(emulator.stats().files_failed == 3);
     CHECK(source.stats().listing_failures == 3);
     CHECK(source.stats().session_failures == 0);
@@ -483,7 +492,9 @@ TEST_CASE("camfi: a trickling download is cut at its total time and fetched agai
   options.download_idle_seconds = 30;
   options.download_total_seconds = 1;
   CamfiSource source(options, dir / "store");
-  CHECK(testing::PullFrames(&source, [&] { source.Stop(); }, 2, 8).size() == 2);
+  CHECK(testing::PullFrames(
+            &source, [&] { source.Stop(); }, 2, 8)
+            .size() == 2);
   CHECK(emulator.stats().bodies_trickled == 2);
   CHECK(source.stats().timed_out_downloads == 2);
 }
@@ -506,7 +517,9 @@ TEST_CASE("camfi: hostile event packets are rejected and counted, shots still fl
   REQUIRE(WaitFor([&] { return source.stats().sessions == 2; }, 5));
   emulator.Shoot();
   emulator.Shoot();
-  CHECK(testing::PullFrames(&source, [&] { source.Stop(); }, 2, 5).size() == 2);
+  CHECK(testing::PullFrames(
+            &source, [&] { source.Stop(); }, 2, 5)
+            .size() == 2);
 }
 
 TEST_CASE("camfi: a restart reads past a torn last record and a malformed one") {
@@ -520,7 +533,9 @@ TEST_CASE("camfi: a restart reads past a torn last record and a malformed one") 
     CamfiSource source(FastClient(emulator), store);
     REQUIRE(WaitFor([&] { return source.stats().sessions == 1; }, 5));
     emulator.Shoot();
-    REQUIRE(testing::PullFrames(&source, [&] { source.Stop(); }, 1, 5).size() == 1);
+    REQUIRE(testing::PullFrames(
+                &source, [&] { source.Stop(); }, 1, 5)
+                .size() == 1);
   }
   // A record with a bad number, and one a kill -9 cut mid-append.
   std::ofstream(store / "journal.tsv", std::ios::app)
@@ -532,7 +547,9 @@ TEST_CASE("camfi: a restart reads past a torn last record and a malformed one") 
   CHECK(source.stats().journal_torn == 1);
   REQUIRE(WaitFor([&] { return source.stats().sessions == 1; }, 5));
   emulator.Shoot();
-  REQUIRE(testing::PullFrames(&source, [&] { source.Stop(); }, 2, 5).size() == 2);
+  REQUIRE(testing::PullFrames(
+              &source, [&] { source.Stop(); }, 2, 5)
+              .size() == 2);
   // The next record starts on a line of its own.
   const JournalContents journal = ReadJournal(store);
   CHECK(journal.skipped.size() == 1);

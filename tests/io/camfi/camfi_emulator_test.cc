@@ -50,17 +50,21 @@ TEST_CASE("The emulator serves the card under camera-style paths") {
   CHECK(http.Get("/files/0/100", testing::kQuickCall).BodyText() == "[]");
   emulator.Shoot();
   emulator.Shoot();
-  const nlohmann::json files = nlohmann::json::parse(http.Get("/files/0/100", testing::kQuickCall).BodyText());
+  const nlohmann::json files =
+      nlohmann::json::parse(http.Get("/files/0/100", testing::kQuickCall).BodyText());
   REQUIRE(files.size() == 2);
   CHECK(files[1] == emulator.DevicePath(1));
-  CHECK(nlohmann::json::parse(http.Get("/files/1/100", testing::kQuickCall).BodyText()).size() == 1);
+  CHECK(nlohmann::json::parse(http.Get("/files/1/100", testing::kQuickCall).BodyText()).size() ==
+        1);
   // The path must come as one %2F-encoded segment.
-  const HttpResult raw = http.Get("/raw/" + EncodeDevicePath(emulator.DevicePath(1)), testing::kQuickCall);
+  const HttpResult raw =
+      http.Get("/raw/" + EncodeDevicePath(emulator.DevicePath(1)), testing::kQuickCall);
   CHECK(raw.status == 200);
   CHECK(raw.body == ReadFileBytes(options.images[1]));
   CHECK(http.Get("/raw/" + emulator.DevicePath(1), testing::kQuickCall).status == 500);
   // Not yet shot.
-  CHECK(http.Get("/raw/" + EncodeDevicePath(emulator.DevicePath(2)), testing::kQuickCall).status == 500);
+  CHECK(http.Get("/raw/" + EncodeDevicePath(emulator.DevicePath(2)), testing::kQuickCall).status ==
+        500);
 }
 
 TEST_CASE("The emulator's event channel speaks Engine.IO v3") {
@@ -97,8 +101,12 @@ TEST_CASE("The emulator's auth and legacy firmware faults") {
   options.faults = {CamfiFault::kAuth, CamfiFault::kLegacyInfo};
   options.password = "secret";
   CamfiEmulator emulator(options);
-  CHECK(CamfiHttp("127.0.0.1", emulator.http_port(), "").Get("/camera", testing::kQuickCall).status == 401);
-  CHECK(CamfiHttp("127.0.0.1", emulator.http_port(), "nope").Get("/camera", testing::kQuickCall).status == 401);
+  CHECK(
+      CamfiHttp("127.0.0.1", emulator.http_port(), "").Get("/camera", testing::kQuickCall).status ==
+      401);
+  CHECK(CamfiHttp("127.0.0.1", emulator.http_port(), "nope")
+            .Get("/camera", testing::kQuickCall)
+            .status == 401);
   const CamfiHttp http("127.0.0.1", emulator.http_port(), "secret");
   CHECK(http.Get("/camera", testing::kQuickCall).status == 200);
   CHECK(http.Get("/info", testing::kQuickCall).status == 404);

@@ -24,7 +24,8 @@ TEST_CASE("CamfiHttp sends %2F as is and reports failures") {
   CamfiEmulator emulator(options);
   emulator.Shoot();
   const CamfiHttp http("127.0.0.1", emulator.http_port(), "");
-  const HttpResult raw = http.Get("/raw/" + EncodeDevicePath(emulator.DevicePath(0)), testing::kQuickCall);
+  const HttpResult raw =
+      http.Get("/raw/" + EncodeDevicePath(emulator.DevicePath(0)), testing::kQuickCall);
   CHECK(raw.status == 200);
   CHECK(raw.error.empty());
   CHECK(raw.content_length == (long long)raw.body.size());

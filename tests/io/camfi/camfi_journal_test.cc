@@ -45,15 +45,18 @@ TEST_CASE("Journal fields carry tabs, newlines, '%' and '\\' without splitting a
 }
 
 TEST_CASE("A malformed journal record is skipped and counted, the rest is read") {
-  const std::string text = "baseline\n"
-                           "stored\t/a.JPG\ta.JPG\tabc\t" + kSha1 + "\n"      // bad number
-                           "stored\t/b.JPG\tb.JPG\t99999999999999999999999\n"  // overflow
-                           "stored\t/c.JPG\t../c.JPG\t5\n"                     // leaves the store
-                           "stored\t/d.JPG\td.JPG\t5\tnot-a-hash\n"
-                           "ignored\t/e%ZZ.JPG\n"                              // bad escape
-                           "something else\n"
-                           "stored\t/f.JPG\tf.JPG\t5\n"                        // before the hash
-                           "ignored\t/g.JPG\n";
+  const std::string text =
+      "baseline\n"
+      "stored\t/a.JPG\ta.JPG\tabc\t" +
+      kSha1 +
+      "\n"                                                // bad number
+      "stored\t/b.JPG\tb.JPG\t99999999999999999999999\n"  // overflow
+      "stored\t/c.JPG\t../c.JPG\t5\n"                     // leaves the store
+      "stored\t/d.JPG\td.JPG\t5\tnot-a-hash\n"
+      "ignored\t/e%ZZ.JPG\n"  // bad escape
+      "something else\n"
+      "stored\t/f.JPG\tf.JPG\t5\n"  // before the hash
+      "ignored\t/g.JPG\n";
   const JournalContents contents = ParseJournal(text);
   CHECK(contents.skipped.size() == 6);
   CHECK(contents.skipped[0].rfind("line 2:", 0) == 0);
@@ -93,8 +96,8 @@ TEST_CASE("A journal append on a full disk leaves no half record, and the next o
   bool full = true;
   JournalContents contents;
   std::size_t torn = 0;
-  JournalFile journal(path, [&](const std::filesystem::path&) { return full ? ENOSPC : 0; },
-                      &contents, &torn);
+  JournalFile journal(
+      path, [&](const std::filesystem::path&) { return full ? ENOSPC : 0; }, &contents, &torn);
   std::string error;
   CHECK_FALSE(journal.Append(FormatJournalRecord(JournalRecord::Ignored("/a.JPG")), &error));
   CHECK_THAT(error, Catch::Contains("No space left"));

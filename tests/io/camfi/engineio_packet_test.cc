@@ -8,13 +8,15 @@ namespace flysfm {
 namespace {
 
 TEST_CASE("ParseEngineIoOpen reads the ping timing") {
-  const auto open = ParseEngineIoOpen(
-      R"(0{"sid":"abc","upgrades":[],"pingInterval":25000,"pingTimeout":60000})", kDefaultMaxJsonDepth);
+  const auto open =
+      ParseEngineIoOpen(R"(0{"sid":"abc","upgrades":[],"pingInterval":25000,"pingTimeout":60000})",
+                        kDefaultMaxJsonDepth);
   REQUIRE(open);
   CHECK(open->sid == "abc");
   CHECK(open->ping_interval_ms == 25000);
   CHECK(open->ping_timeout_ms == 60000);
-  const auto round_trip = ParseEngineIoOpen(FormatEngineIoOpen({"x", 300, 400}), kDefaultMaxJsonDepth);
+  const auto round_trip =
+      ParseEngineIoOpen(FormatEngineIoOpen({"x", 300, 400}), kDefaultMaxJsonDepth);
   REQUIRE(round_trip);
   CHECK(round_trip->ping_interval_ms == 300);
   CHECK(round_trip->ping_timeout_ms == 400);
@@ -28,18 +30,19 @@ TEST_CASE("ParseEngineIoOpen rejects other packets") {
 }
 
 TEST_CASE("ParseSocketIoEvent reads file_added") {
-  const auto event =
-      ParseSocketIoEvent(R"(42["file_added","/store_00010001/DCIM/100CANON/IMG_0001.JPG"])", kDefaultMaxJsonDepth);
+  const auto event = ParseSocketIoEvent(
+      R"(42["file_added","/store_00010001/DCIM/100CANON/IMG_0001.JPG"])", kDefaultMaxJsonDepth);
   REQUIRE(event);
   CHECK(event->name == "file_added");
   REQUIRE(event->args.size() == 1);
   CHECK(event->args[0] == "/store_00010001/DCIM/100CANON/IMG_0001.JPG");
   // With a message id.
-  const auto with_id = ParseSocketIoEvent(R"(4212["camera_add",{"model":"x"}])", kDefaultMaxJsonDepth);
+  const auto with_id =
+      ParseSocketIoEvent(R"(4212["camera_add",{"model":"x"}])", kDefaultMaxJsonDepth);
   REQUIRE(with_id);
   CHECK(with_id->name == "camera_add");
-  const auto round_trip =
-      ParseSocketIoEvent(FormatSocketIoEvent("file_added", nlohmann::json::array({"/a.JPG"})), kDefaultMaxJsonDepth);
+  const auto round_trip = ParseSocketIoEvent(
+      FormatSocketIoEvent("file_added", nlohmann::json::array({"/a.JPG"})), kDefaultMaxJsonDepth);
   REQUIRE(round_trip);
   CHECK(round_trip->args[0] == "/a.JPG");
 }

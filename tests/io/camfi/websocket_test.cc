@@ -56,8 +56,8 @@ std::thread Flood(int listen_fd, std::function<std::string(int)> frames, double 
     const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
     for (int i = 0; socket && std::chrono::steady_clock::now() < deadline; ++i) {
       const std::string frame = frames(i);
-      if (frame.empty() || ::send(raw, frame.data(), frame.size(), MSG_NOSIGNAL) !=
-                               ssize_t(frame.size())) {
+      if (frame.empty() ||
+          ::send(raw, frame.data(), frame.size(), MSG_NOSIGNAL) != ssize_t(frame.size())) {
         break;
       }
     }
@@ -172,7 +172,8 @@ TEST_CASE("WebSocket drops an endless fragment stream once it passes the bound")
 TEST_CASE("WebSocket::Receive returns on time under a flood of pings") {
   int port = 0;
   const int listen_fd = Listen(&port);
-  std::thread server = Flood(listen_fd, [](int) { return Frame(true, 0x9, "p"); }, 3);
+  std::thread server = Flood(
+      listen_fd, [](int) { return Frame(true, 0x9, "p"); }, 3);
   WebSocket client = WebSocket::Connect("127.0.0.1", port, "/", 2000);
   std::string message;
   const auto start = std::chrono::steady_clock::now();
