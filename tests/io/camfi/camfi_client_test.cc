@@ -22,8 +22,12 @@ namespace {
 
 constexpr int kShots = 7;
 
-CamfiEmulatorOptions FastEmulator(const std::vector<std::filesystem::path>& images) {
-  CamfiEmulatorOptions options = testing::LoopbackEmulator(images, 0.1, 250, 250);
+// Shots every 0.1 s, or only by Shoot() with `kByHand`.
+constexpr double kByHand = 1000;
+
+CamfiEmulatorOptions FastEmulator(const std::vector<std::filesystem::path>& images,
+                                  double interval_seconds = 0.1) {
+  CamfiEmulatorOptions options = testing::LoopbackEmulator(images, interval_seconds, 250, 250);
   options.fault_every = 3;
   return options;
 }
@@ -41,6 +45,12 @@ CamfiOptions FastClient(const CamfiEmulator& emulator) {
   options.download_idle_seconds = 2;
   options.retries = 3;
   return options;
+}
+
+// Frames from `source` until `count` or `seconds`.
+std::vector<Frame> Pull(CamfiSource* source, int count, double seconds) {
+  return testing::PullFrames(
+      source, [source] { source->Stop(); }, count, seconds);
 }
 
 std::vector<std::string> JournalLines(const std::filesystem::path& store, const std::string& kind) {
@@ -106,7 +116,7 @@ Outcome RunWithFaults(const std::set<CamfiFault>& faults,
   CamfiStats client_stats;
   {
     CamfiSource source(client_options, store);
-    frames = testing::PullFrames(&source, [&] { source.Stop(); }, kShots, 15);
+    frames = Pull(&source, kShots, 15);
     // Long enough for another listing and any duplicate or late event.
     std::this_thread::sleep_for(std::chrono::milliseconds(1200));
     client_stats = source.stats();
@@ -228,7 +238,7 @@ TEST_CASE("camfi: Engine.IO v4 firmware as an option") {
   CamfiOptions client_options = FastClient(emulator);
   client_options.engine_io_version = 4;
   CamfiSource source(client_options, dir / "store");
-  CHECK(testing::PullFrames(&source, [&] { source.Stop(); }, 3, 5).size() == 3);
+  CHECK(Pull(&source, 3, 5).size() == 3);
   // Answering the server's pings keeps the one session alive.
   std::this_thread::sleep_for(std::chrono::milliseconds(800));
   CHECK(source.stats().sessions == 1);
@@ -259,13 +269,15 @@ TEST_CASE("camfi: a new source on the same store replays it and fetches nothing 
   CamfiEmulator emulator(emulator_options);
   const std::filesystem::path store = dir / "store";
   std::vector<Frame> first;
+  int first_rechecks = 0;
   {
     CamfiSource source(FastClient(emulator), store);
-    first = testing::PullFrames(&source, [&] { source.Stop(); }, 3, 10);
+    first = Pull(&source, 3, 10);
+    first_rechecks = source.stats().rechecked;
   }
   REQUIRE(first.size() == 3);
   CamfiSource source(FastClient(emulator), store);
-  const std::vector<Frame> second = testing::PullFrames(&source, [&] { source.Stop(); }, 8, 15);
+  const std::vector<Frame> second = Pull(&source, 8, 15);
   REQUIRE(second.size() == 8);
   CHECK(source.stats().replayed >= 3);
   for (std::size_t i = 0; i < first.size(); ++i) CHECK(second[i].name == first[i].name);
@@ -273,7 +285,9 @@ TEST_CASE("camfi: a new source on the same store replays it and fetches nothing 
   for (const Frame& frame : second) names.insert(frame.name);
   CHECK(names.size() == 8);
   std::this_thread::sleep_for(std::chrono::milliseconds(700));
-  CHECK(emulator.stats().raw_served == 8);
+  // An event that comes after a listing fetched its shot is a recheck: the
+  // only downloads besides one per shot.
+  CHECK(emulator.stats().raw_served == 8 + first_rechecks + source.stats().rechecked);
   CHECK(JournalLines(store, "stored\t").size() == 8);
 }
 
@@ -285,14 +299,14 @@ TEST_CASE("camfi: files on the card before a fresh store are ignored unless aske
   {
     CamfiSource source(FastClient(emulator), dir / "ignore");
     // Two shots were on the card before; one more comes after connecting.
-    const std::vector<Frame> frames = testing::PullFrames(&source, [&] { source.Stop(); }, 3, 3);
+    const std::vector<Frame> frames = Pull(&source, 3, 3);
     REQUIRE(frames.size() == 1);
     CHECK(frames[0].name == StoreNameForDevicePath(emulator.DevicePath(2)));
   }
   CamfiOptions fetch_all = FastClient(emulator);
   fetch_all.fetch_existing = true;
   CamfiSource source(fetch_all, dir / "fetch");
-  CHECK(testing::PullFrames(&source, [&] { source.Stop(); }, 3, 5).size() == 3);
+  CHECK(Pull(&source, 3, 5).size() == 3);
 }
 
 TEST_CASE("camfi: a full disk rejects the shot, and shots flow again once space is back") {
@@ -300,8 +314,7 @@ TEST_CASE("camfi: a full disk rejects the shot, and shots flow again once space 
     CAPTURE(journal_only);
     const std::filesystem::path dir = testing::MakeTempDir("camfi_full_disk");
     const std::vector<std::filesystem::path> images = testing::WriteTestJpegs(dir, 3);
-    CamfiEmulatorOptions emulator_options = FastEmulator(images);
-    emulator_options.interval_seconds = 1000;  // shots by Shoot() only
+    CamfiEmulatorOptions emulator_options = FastEmulator(images, kByHand);
     CamfiEmulator emulator(emulator_options);
     CamfiOptions options = FastClient(emulator);
     std::atomic<bool> full{false};
@@ -321,8 +334,7 @@ TEST_CASE("camfi: a full disk rejects the shot, and shots flow again once space 
     CHECK(source.stats().session_failures == 0);
     CHECK(NumImageFiles(store) == 0);
     full = false;
-    const std::vector<Frame> frames = testing::PullFrames(
-        &source, [&] { source.Stop(); }, 3, 10);
+    const std::vector<Frame> frames = Pull(&source, 3, 10);
     REQUIRE(frames.size() == 3);
     for (int i = 0; i < 3; ++i) {
       CHECK(ReadFileBytes(store / StoreNameForDevicePath(emulator.DevicePath(i))) ==
@@ -344,8 +356,7 @@ TEST_CASE("camfi: a swapped card's shots under known paths are new shots") {
     CAPTURE(announced);
     const std::filesystem::path dir = testing::MakeTempDir("camfi_swap");
     const std::vector<std::filesystem::path> images = testing::WriteTestJpegs(dir, 4);
-    CamfiEmulatorOptions emulator_options = FastEmulator(images);
-    emulator_options.interval_seconds = 1000;  // shots by Shoot() only
+    CamfiEmulatorOptions emulator_options = FastEmulator(images, kByHand);
     if (!announced) {
       emulator_options.faults = {CamfiFault::kMissing};
       emulator_options.fault_every = 1;
@@ -358,16 +369,13 @@ TEST_CASE("camfi: a swapped card's shots under known paths are new shots") {
     REQUIRE(WaitFor([&] { return source.stats().sessions > 0; }, 5));
     emulator.Shoot();
     emulator.Shoot();
-    REQUIRE(testing::PullFrames(
-                &source, [&] { source.Stop(); }, 2, 5)
-                .size() == 2);
+    REQUIRE(Pull(&source, 2, 5).size() == 2);
     emulator.SwapCard();
     // A listing of the empty card.
     std::this_thread::sleep_for(std::chrono::milliseconds(600));
     emulator.Shoot();
     emulator.Shoot();
-    const std::vector<Frame> frames = testing::PullFrames(
-        &source, [&] { source.Stop(); }, 2, 5);
+    const std::vector<Frame> frames = Pull(&source, 2, 5);
     REQUIRE(frames.size() == 2);
     // Same device paths as the first card's shots, new bytes, new names.
     CHECK(frames[0].name == StoreNameForDevicePath(emulator.DevicePath(0), 2));
@@ -396,9 +404,7 @@ TEST_CASE("camfi: a device that pages by less than asked is listed to the end") 
   CamfiOptions options = FastClient(emulator);
   options.fetch_existing = true;
   CamfiSource source(options, dir / "store");
-  CHECK(testing::PullFrames(
-            &source, [&] { source.Stop(); }, 8, 5)
-            .size() == 8);
+  CHECK(Pull(&source, 8, 5).size() == 8);
   CHECK(source.stats().found_by_listing == 8);
 }
 
@@ -406,7 +412,7 @@ TEST_CASE("camfi: a device that ignores start does not loop the listing") {
   const std::filesystem::path dir = testing::MakeTempDir("camfi_ignore_start");
   CamfiEmulatorOptions emulator_options = FastEmulator(testing::WriteTestJpegs(dir, 4));
   emulator_options.files_ignore_start = true;
-  emulator_options.interval_seconds = 1000;
+  emulator_options.interval_seconds = kByHand;
   CamfiEmulator emulator(emulator_options);
   emulator.Shoot();
   emulator.Shoot();
@@ -415,14 +421,10 @@ TEST_CASE("camfi: a device that ignores start does not loop the listing") {
   options.list_page = 2;  // every page full
   options.reconcile_seconds = 0.2;
   CamfiSource source(options, dir / "store");
-  REQUIRE(testing::PullFrames(
-              &source, [&] { source.Stop(); }, 2, 5)
-              .size() == 2);
+  REQUIRE(Pull(&source, 2, 5).size() == 2);
   // Events are still handled: the session is live, not listing.
   emulator.Shoot();
-  CHECK(testing::PullFrames(
-            &source, [&] { source.Stop(); }, 1, 5)
-            .size() == 1);
+  CHECK(Pull(&source, 1, 5).size() == 1);
   const std::vector<std::string> log = emulator.RequestLog();
   const auto listings = std::count_if(log.begin(), log.end(), [](const std::string& line) {
     return line.rfind("GET /files/", 0) == 0;
@@ -453,9 +455,7 @@ TEST_CASE("camfi: a failing listing is counted and retried, the session goes on"
     options.fetch_existing = true;
     options.reconcile_seconds = 0.2;
     CamfiSource source(options, dir / "store");
-    CHECK(testing::PullFrames(
-              &source, [&] { source.Stop(); }, 2, 8)
-              .size() == 2);
+    CHECK(Pull(&source, 2, 8).size() == 2);
     CHECK(emulator.stats().files_failed == 3);
     CHECK(source.stats().listing_failures == 3);
     CHECK(source.stats().session_failures == 0);
@@ -492,17 +492,14 @@ TEST_CASE("camfi: a trickling download is cut at its total time and fetched agai
   options.download_idle_seconds = 30;
   options.download_total_seconds = 1;
   CamfiSource source(options, dir / "store");
-  CHECK(testing::PullFrames(
-            &source, [&] { source.Stop(); }, 2, 8)
-            .size() == 2);
+  CHECK(Pull(&source, 2, 8).size() == 2);
   CHECK(emulator.stats().bodies_trickled == 2);
   CHECK(source.stats().timed_out_downloads == 2);
 }
 
 TEST_CASE("camfi: hostile event packets are rejected and counted, shots still flow") {
   const std::filesystem::path dir = testing::MakeTempDir("camfi_hostile_events");
-  CamfiEmulatorOptions emulator_options = FastEmulator(testing::WriteTestJpegs(dir, 2));
-  emulator_options.interval_seconds = 1000;
+  CamfiEmulatorOptions emulator_options = FastEmulator(testing::WriteTestJpegs(dir, 2), kByHand);
   CamfiEmulator emulator(emulator_options);
   CamfiOptions options = FastClient(emulator);
   options.max_event_message_bytes = 4096;
@@ -517,25 +514,20 @@ TEST_CASE("camfi: hostile event packets are rejected and counted, shots still fl
   REQUIRE(WaitFor([&] { return source.stats().sessions == 2; }, 5));
   emulator.Shoot();
   emulator.Shoot();
-  CHECK(testing::PullFrames(
-            &source, [&] { source.Stop(); }, 2, 5)
-            .size() == 2);
+  CHECK(Pull(&source, 2, 5).size() == 2);
 }
 
 TEST_CASE("camfi: a restart reads past a torn last record and a malformed one") {
   const std::filesystem::path dir = testing::MakeTempDir("camfi_journal_restart");
   const std::vector<std::filesystem::path> images = testing::WriteTestJpegs(dir, 3);
-  CamfiEmulatorOptions emulator_options = FastEmulator(images);
-  emulator_options.interval_seconds = 1000;
+  CamfiEmulatorOptions emulator_options = FastEmulator(images, kByHand);
   CamfiEmulator emulator(emulator_options);
   const std::filesystem::path store = dir / "store";
   {
     CamfiSource source(FastClient(emulator), store);
     REQUIRE(WaitFor([&] { return source.stats().sessions == 1; }, 5));
     emulator.Shoot();
-    REQUIRE(testing::PullFrames(
-                &source, [&] { source.Stop(); }, 1, 5)
-                .size() == 1);
+    REQUIRE(Pull(&source, 1, 5).size() == 1);
   }
   // A record with a bad number, and one a kill -9 cut mid-append.
   std::ofstream(store / "journal.tsv", std::ios::app)
@@ -547,9 +539,7 @@ TEST_CASE("camfi: a restart reads past a torn last record and a malformed one") 
   CHECK(source.stats().journal_torn == 1);
   REQUIRE(WaitFor([&] { return source.stats().sessions == 1; }, 5));
   emulator.Shoot();
-  REQUIRE(testing::PullFrames(
-              &source, [&] { source.Stop(); }, 2, 5)
-              .size() == 2);
+  REQUIRE(Pull(&source, 2, 5).size() == 2);
   // The next record starts on a line of its own.
   const JournalContents journal = ReadJournal(store);
   CHECK(journal.skipped.size() == 1);
