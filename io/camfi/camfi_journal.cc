@@ -143,9 +143,10 @@ std::string FormatJournalRecord(const JournalRecord& record) {
     case JournalRecord::Kind::kIgnored:
       return "ignored\t" + EscapeJournalField(record.device_path) + "\n";
     case JournalRecord::Kind::kStored:
+      // A record without a hash (read from an older journal) stays one.
       return "stored\t" + EscapeJournalField(record.device_path) + "\t" +
-             EscapeJournalField(record.store_name) + "\t" + std::to_string(record.bytes) + "\t" +
-             EscapeJournalField(record.sha1) + "\n";
+             EscapeJournalField(record.store_name) + "\t" + std::to_string(record.bytes) +
+             (record.sha1.empty() ? "" : "\t" + EscapeJournalField(record.sha1)) + "\n";
   }
   return "";
 }

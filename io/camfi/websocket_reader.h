@@ -31,8 +31,10 @@ class WebSocketReader {
   explicit WebSocketReader(std::size_t max_message_bytes = kDefaultMaxWebSocketMessageBytes)
       : max_message_bytes_(max_message_bytes) {}
 
-  // Bytes as they came off the connection.
-  void Append(const char* data, std::size_t size) { buffer_.append(data, size); }
+  // Bytes as they came off the connection (dropped after an error).
+  void Append(const char* data, std::size_t size) {
+    if (failure_.empty()) buffer_.append(data, size);
+  }
   // The next item the buffered bytes hold, its payload in `*payload`. After
   // kError (`*error` says why) the connection is to be dropped: the reader
   // returns kError from then on.
