@@ -11,6 +11,10 @@ seconds=${1:-60}
 build=build-fuzz
 jobs=2
 
+if ! command -v clang++ >/dev/null; then
+  echo "fuzz: needs clang and libFuzzer (Debian: apt-get install clang libclang-rt-14-dev)" >&2
+  exit 1
+fi
 start=$SECONDS
 cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Release -DCMAKE_CXX_COMPILER=clang++ \
   -DFLYSFM_FUZZ=ON >/dev/null
