@@ -26,7 +26,9 @@ struct HttpResult {
   std::string BodyText() const { return std::string(body.begin(), body.end()); }
 };
 
-// What one call may cost; a call over a bound ends with an error.
+// What one call may cost; a call over a bound ends with an error. Every call
+// sets `total_seconds` and `max_body_bytes` (> 0): there is no unbounded
+// call.
 struct HttpLimits {
   // The whole call, from connecting to the last byte.
   double total_seconds = 0;
