@@ -107,13 +107,14 @@ void AddCamfiEmulatorCommand(CLI::App& app) {
       int signal = 0;
       sigwait(&signals, &signal);
       const CamfiEmulatorStats stats = emulator.stats();
-      std::printf("CAMFI emulator: %d shots, %d events sent, %d downloads served; faults: "
-                  "%d sockets dropped, %d stalled, %d events duplicated, %d missing, %d "
-                  "reordered, %d bodies truncated, %d HTTP 500, %d unauthorised\n",
-                  stats.shots, stats.events_sent, stats.raw_served, stats.sockets_dropped,
-                  stats.sockets_stalled, stats.events_duplicated, stats.events_missing,
-                  stats.events_reordered, stats.bodies_truncated, stats.http_500,
-                  stats.unauthorized);
+      std::printf(
+          "CAMFI emulator: %d shots, %d events sent, %d downloads served; faults: "
+          "%d sockets dropped, %d stalled, %d events duplicated, %d missing, %d "
+          "reordered, %d bodies truncated, %d trickled, %d HTTP 500, %d unauthorised\n",
+          stats.shots, stats.events_sent, stats.raw_served, stats.sockets_dropped,
+          stats.sockets_stalled, stats.events_duplicated, stats.events_missing,
+          stats.events_reordered, stats.bodies_truncated, stats.bodies_trickled, stats.http_500,
+          stats.unauthorized);
       if (!flags->request_log.empty()) {
         std::ofstream log(flags->request_log);
         for (const std::string& line : emulator.RequestLog()) log << line << "\n";

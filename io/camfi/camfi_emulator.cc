@@ -27,11 +27,11 @@ namespace {
 
 const std::vector<std::pair<CamfiFault, std::string>>& FaultTable() {
   static const std::vector<std::pair<CamfiFault, std::string>> table = {
-      {CamfiFault::kDropSocket, "drop-socket"}, {CamfiFault::kStall, "stall"},
-      {CamfiFault::kDuplicate, "duplicate"},    {CamfiFault::kMissing, "missing"},
+      {CamfiFault::kDropSocket, "drop-socket"},  {CamfiFault::kStall, "stall"},
+      {CamfiFault::kDuplicate, "duplicate"},     {CamfiFault::kMissing, "missing"},
       {CamfiFault::kOutOfOrder, "out-of-order"}, {CamfiFault::kTruncate, "truncate"},
-      {CamfiFault::kHttp500, "http500"},        {CamfiFault::kAuth, "auth"},
-      {CamfiFault::kLegacyInfo, "legacy-info"}};
+      {CamfiFault::kHttp500, "http500"},         {CamfiFault::kAuth, "auth"},
+      {CamfiFault::kLegacyInfo, "legacy-info"},  {CamfiFault::kTrickle, "trickle"}};
   return table;
 }
 
@@ -79,9 +79,9 @@ bool CamfiEmulatorOptions::Check() const {
   const auto valid_port = [](int port) { return port >= 0 && port < 65536; };
   return !images.empty() && valid_port(http_port) && valid_port(event_port) &&
          interval_seconds >= 0 && ping_interval_ms > 0 && ping_timeout_ms > 0 &&
-         (engine_io_version == 3 || engine_io_version == 4) && fault_every > 0 &&
-         !store.empty() && store.front() == '/' && folder_size > 0 &&
-         folder_size <= 9999;
+         (engine_io_version == 3 || engine_io_version == 4) && fault_every > 0 && !store.empty() &&
+         store.front() == '/' && folder_size > 0 && folder_size <= 9999 && files_page_limit >= 0 &&
+         files_failures >= 0;
 }
 
 struct CamfiEmulator::Connection {
@@ -90,7 +90,8 @@ struct CamfiEmulator::Connection {
   bool dropped = false;
 };
 
-CamfiEmulator::CamfiEmulator(const CamfiEmulatorOptions& options) : options_(options) {
+CamfiEmulator::CamfiEmulator(const CamfiEmulatorOptions& options)
+    : options_(options), files_failures_left_(options.files_failures) {
   if (!options_.Check()) throw std::invalid_argument("invalid CAMFI emulator options");
   for (const std::filesystem::path& path : options_.images) images_.push_back(LoadAsJpeg(path));
   std::mt19937 random(options_.seed);
@@ -207,17 +208,27 @@ void CamfiEmulator::SetUpRoutes() {
                       {{"status",
                         {{"children", {{"cameramodel", {{"value", "Emulated EOS"}}}}}}}}}}}});
   });
-  server_->Get(R"(/files/(\d+)/(\d+))", [this](const httplib::Request& req,
-                                                httplib::Response& res) {
-    const std::size_t start = std::stoul(req.matches[1]);
-    const std::size_t count = std::stoul(req.matches[2]);
-    nlohmann::json list = nlohmann::json::array();
-    std::lock_guard<std::mutex> lock(mutex_);
-    for (std::size_t i = start; i < card_.size() && i < start + count; ++i) {
-      list.push_back(card_[i]);
-    }
-    SendJson(res, list);
-  });
+  server_->Get(
+      R"(/files/(\d+)/(\d+))", [this](const httplib::Request& req, httplib::Response& res) {
+        const std::size_t start = options_.files_ignore_start ? 0 : std::stoul(req.matches[1]);
+        std::size_t count = std::stoul(req.matches[2]);
+        if (options_.files_page_limit > 0) {
+          count = std::min(count, std::size_t(options_.files_page_limit));
+        }
+        nlohmann::json list = nlohmann::json::array();
+        std::lock_guard<std::mutex> lock(mutex_);
+        if (files_failures_left_ > 0) {
+          --files_failures_left_;
+          ++stats_.files_failed;
+          res.status = options_.files_failure_status;
+          res.set_content(options_.files_failure_body, "application/json");
+          return;
+        }
+        for (std::size_t i = start; i < card_.size() && i < start + count; ++i) {
+          list.push_back(card_[i]);
+        }
+        SendJson(res, list);
+      });
   const auto serve_file = [this](const std::string& route) {
     return [this, route](const httplib::Request& req, httplib::Response& res) {
       // Routed on the target as received, not on httplib's decoded path:
@@ -236,14 +247,28 @@ void CamfiEmulator::SetUpRoutes() {
       }
       const int shot = found->second;
       const std::shared_ptr<const std::string> bytes = images_[std::size_t(shot)];
-      if (route == "/raw/" && Hits(CamfiFault::kHttp500, shot) &&
-          download_fault_used_.insert(2 * shot).second) {
+      const auto first_download_hit = [&](CamfiFault fault) {
+        return route == "/raw/" && Hits(fault, shot) &&
+               download_fault_used_.insert({fault, shot}).second;
+      };
+      if (first_download_hit(CamfiFault::kHttp500)) {
         ++stats_.http_500;
         SendJson(res, {{"message", "camera busy"}}, 500);
         return;
       }
-      if (route == "/raw/" && Hits(CamfiFault::kTruncate, shot) &&
-          download_fault_used_.insert(2 * shot + 1).second) {
+      if (first_download_hit(CamfiFault::kTrickle)) {
+        ++stats_.bodies_trickled;
+        res.set_content_provider(
+            bytes->size(), "image/jpeg",
+            [this, bytes](std::size_t offset, std::size_t, httplib::DataSink& sink) {
+              for (int i = 0; i < 20 && !stopping_; ++i) {
+                std::this_thread::sleep_for(std::chrono::milliseconds(50));
+              }
+              return !stopping_ && sink.write(bytes->data() + offset, 1);
+            });
+        return;
+      }
+      if (first_download_hit(CamfiFault::kTruncate)) {
         ++stats_.bodies_truncated;
         // The full Content-Length, half the bytes, then the connection ends.
         res.set_content_provider(
@@ -362,10 +387,7 @@ void CamfiEmulator::DriveShots() {
       FireLocked();
     } else {
       // A shutter press without tether mode: on the card, not announced.
-      const int shot = next_shot_++;
-      card_.push_back(DevicePath(shot));
-      card_index_[card_.back()] = shot;
-      ++stats_.shots;
+      PutOnCardLocked();
     }
   }
 }
@@ -375,12 +397,29 @@ void CamfiEmulator::Shoot() {
   if (next_shot_ < num_images()) FireLocked();
 }
 
-void CamfiEmulator::FireLocked() {
+void CamfiEmulator::SwapCard() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  card_.clear();
+  card_index_.clear();
+  card_files_ = 0;
+}
+
+void CamfiEmulator::SendPacket(const std::string& packet) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  SendLocked({packet});
+}
+
+std::pair<int, std::string> CamfiEmulator::PutOnCardLocked() {
   const int shot = next_shot_++;
-  const std::string path = DevicePath(shot);
+  std::string path = DevicePath(card_files_++);
   card_.push_back(path);
   card_index_[path] = shot;
   ++stats_.shots;
+  return {shot, std::move(path)};
+}
+
+void CamfiEmulator::FireLocked() {
+  const auto [shot, path] = PutOnCardLocked();
   if (Hits(CamfiFault::kDropSocket, shot) && !connections_.empty()) {
     for (const auto& connection : connections_) connection->dropped = true;
     ++stats_.sockets_dropped;

@@ -30,19 +30,20 @@ class Server;
 namespace flysfm {
 
 enum class CamfiFault {
-  kDropSocket,   // event channels closed just before the shot's event
-  kStall,        // event channels go silent (no pong, no event), TCP stays up
-  kDuplicate,    // the shot's event is sent twice
-  kMissing,      // the shot's event is never sent
-  kOutOfOrder,   // the shot's event is sent after the next shot's
-  kTruncate,     // the first download of the shot stops half way
-  kHttp500,      // the first download of the shot answers 500
-  kAuth,         // every HTTP call needs user CamFi and the password
-  kLegacyInfo,   // /info answers 404 (firmware 1.0.0.0)
+  kDropSocket,  // event channels closed just before the shot's event
+  kStall,       // event channels go silent (no pong, no event), TCP stays up
+  kDuplicate,   // the shot's event is sent twice
+  kMissing,     // the shot's event is never sent
+  kOutOfOrder,  // the shot's event is sent after the next shot's
+  kTruncate,    // the first download of the shot stops half way
+  kHttp500,     // the first download of the shot answers 500
+  kAuth,        // every HTTP call needs user CamFi and the password
+  kLegacyInfo,  // /info answers 404 (firmware 1.0.0.0)
+  kTrickle,     // the first download of the shot sends one byte a second
 };
 
 // "drop-socket", "stall", "duplicate", "missing", "out-of-order",
-// "truncate", "http500", "auth", "legacy-info".
+// "truncate", "http500", "auth", "legacy-info", "trickle".
 std::optional<CamfiFault> ParseCamfiFault(const std::string& name);
 std::string CamfiFaultName(CamfiFault fault);
 std::vector<std::string> CamfiFaultNames();
@@ -75,6 +76,15 @@ struct CamfiEmulatorOptions {
   // Card folder; "100CANON" rolls over to "101CANON" after this many files.
   std::string store = "/store_00010001";
   int folder_size = 9999;
+  // /files quirks of other firmware: at most this many paths a page (0: as
+  // many as asked), `start` ignored (every page from the first file), and
+  // the first `files_failures` listings answered with
+  // `files_failure_status` and `files_failure_body` (a busy camera).
+  int files_page_limit = 0;
+  bool files_ignore_start = false;
+  int files_failures = 0;
+  int files_failure_status = 500;
+  std::string files_failure_body = R"({"message":"camera busy"})";
 
   bool Check() const;
 };
@@ -90,6 +100,8 @@ struct CamfiEmulatorStats {
   int bodies_truncated = 0;
   int http_500 = 0;
   int unauthorized = 0;
+  int bodies_trickled = 0;
+  int files_failed = 0;  // listings answered with the failure body
   int raw_served = 0;  // complete /raw/ downloads
 };
 
@@ -103,7 +115,7 @@ class CamfiEmulator {
 
   int http_port() const { return http_port_; }
   int event_port() const { return event_port_; }
-  // The device path of shot `index` (0-based).
+  // The device path of the `index`-th file (0-based) shot onto a card.
   std::string DevicePath(int index) const;
   // "METHOD target" of every HTTP request, target exactly as received.
   std::vector<std::string> RequestLog() const;
@@ -111,6 +123,11 @@ class CamfiEmulator {
   int num_images() const { return int(images_.size()); }
   // Fires the next shot now (what GET /takepic/true does).
   void Shoot();
+  // Swaps the card for an empty one: the next shots are numbered from
+  // IMG_0001 again, under the paths of the first card, with new images.
+  void SwapCard();
+  // Sends `packet` as is on every event channel (hostile-firmware tests).
+  void SendPacket(const std::string& packet);
 
  private:
   struct Connection;
@@ -118,6 +135,8 @@ class CamfiEmulator {
   void AcceptLoop();
   void Serve(std::shared_ptr<Connection> connection, int fd);
   void DriveShots();
+  // Puts the next image on the card; its shot index and path. mutex_ held.
+  std::pair<int, std::string> PutOnCardLocked();
   // Puts the next image on the card and queues its event(s); mutex_ held.
   void FireLocked();
   void SendLocked(const std::vector<std::string>& events);
@@ -135,13 +154,17 @@ class CamfiEmulator {
   mutable std::mutex mutex_;
   std::condition_variable wake_;
   int next_shot_ = 0;
+  // Files shot onto the current card.
+  int card_files_ = 0;
+  int files_failures_left_ = 0;
   bool client_seen_ = false;
   // POST /tether/start arms the events of shutter-button shots (camfi.md 2.1).
   bool tethered_ = false;
   // Card path -> shot index of every file shot so far, in shot order.
   std::vector<std::string> card_;
   std::map<std::string, int> card_index_;
-  std::set<int> download_fault_used_;
+  // The download faults already served, per shot: each hits one download.
+  std::set<std::pair<CamfiFault, int>> download_fault_used_;
   std::optional<std::string> held_event_;
   std::vector<std::shared_ptr<Connection>> connections_;
   std::vector<std::string> request_log_;

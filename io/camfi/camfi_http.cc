@@ -8,9 +8,21 @@
 namespace flysfm {
 namespace {
 
+struct Sink {
+  std::vector<std::uint8_t>* body;
+  std::uint64_t max_bytes;
+  bool over = false;
+};
+
+// A body without Content-Length (chunked, or a lying server) is bounded as
+// it arrives: returning less than given makes libcurl end the transfer.
 std::size_t AppendBody(char* data, std::size_t size, std::size_t count, void* user) {
-  auto* body = static_cast<std::vector<std::uint8_t>*>(user);
-  body->insert(body->end(), data, data + size * count);
+  auto* sink = static_cast<Sink*>(user);
+  if (sink->body->size() + size * count > sink->max_bytes) {
+    sink->over = true;
+    return 0;
+  }
+  sink->body->insert(sink->body->end(), data, data + size * count);
   return size * count;
 }
 
@@ -46,18 +58,17 @@ CamfiHttp::CamfiHttp(std::string host, int port, std::string password)
   std::call_once(once, [] { curl_global_init(CURL_GLOBAL_DEFAULT); });
 }
 
-HttpResult CamfiHttp::Get(const std::string& target, double timeout_seconds,
-                          double idle_seconds, const std::atomic<bool>* abort) const {
-  return Perform("GET", target, timeout_seconds, idle_seconds, abort);
+HttpResult CamfiHttp::Get(const std::string& target, const HttpLimits& limits,
+                          const std::atomic<bool>* abort) const {
+  return Perform("GET", target, limits, abort);
 }
 
-HttpResult CamfiHttp::Post(const std::string& target, double timeout_seconds) const {
-  return Perform("POST", target, timeout_seconds, 0, nullptr);
+HttpResult CamfiHttp::Post(const std::string& target, const HttpLimits& limits) const {
+  return Perform("POST", target, limits, nullptr);
 }
 
 HttpResult CamfiHttp::Perform(const std::string& method, const std::string& target,
-                              double timeout_seconds, double idle_seconds,
-                              const std::atomic<bool>* abort) const {
+                              const HttpLimits& limits, const std::atomic<bool>* abort) const {
   HttpResult result;
   CURL* curl = curl_easy_init();
   if (curl == nullptr) {
@@ -68,18 +79,20 @@ HttpResult CamfiHttp::Perform(const std::string& method, const std::string& targ
   curl_easy_setopt(curl, CURLOPT_URL, url.c_str());
   curl_easy_setopt(curl, CURLOPT_PATH_AS_IS, 1L);
   curl_easy_setopt(curl, CURLOPT_NOSIGNAL, 1L);
+  Sink sink{&result.body, limits.max_body_bytes};
   curl_easy_setopt(curl, CURLOPT_WRITEFUNCTION, AppendBody);
-  curl_easy_setopt(curl, CURLOPT_WRITEDATA, &result.body);
+  curl_easy_setopt(curl, CURLOPT_WRITEDATA, &sink);
+  // Refuses at once a body whose Content-Length is over the bound.
+  curl_easy_setopt(curl, CURLOPT_MAXFILESIZE_LARGE, curl_off_t(limits.max_body_bytes));
   curl_easy_setopt(curl, CURLOPT_NOPROGRESS, 0L);
   curl_easy_setopt(curl, CURLOPT_XFERINFOFUNCTION, CheckAbort);
   curl_easy_setopt(curl, CURLOPT_XFERINFODATA, abort);
-  const long connect_ms = long(1000 * std::min(timeout_seconds > 0 ? timeout_seconds : 5.0, 5.0));
-  curl_easy_setopt(curl, CURLOPT_CONNECTTIMEOUT_MS, connect_ms);
-  if (idle_seconds > 0) {
+  curl_easy_setopt(curl, CURLOPT_CONNECTTIMEOUT_MS,
+                   long(1000 * std::min(limits.total_seconds, 5.0)));
+  curl_easy_setopt(curl, CURLOPT_TIMEOUT_MS, long(1000 * limits.total_seconds));
+  if (limits.idle_seconds > 0) {
     curl_easy_setopt(curl, CURLOPT_LOW_SPEED_LIMIT, 1L);
-    curl_easy_setopt(curl, CURLOPT_LOW_SPEED_TIME, long(std::max(1.0, idle_seconds)));
-  } else {
-    curl_easy_setopt(curl, CURLOPT_TIMEOUT_MS, long(1000 * timeout_seconds));
+    curl_easy_setopt(curl, CURLOPT_LOW_SPEED_TIME, long(std::max(1.0, limits.idle_seconds)));
   }
   if (method == "POST") {
     curl_easy_setopt(curl, CURLOPT_POST, 1L);
@@ -97,7 +110,15 @@ HttpResult CamfiHttp::Perform(const std::string& method, const std::string& targ
   curl_easy_getinfo(curl, CURLINFO_CONTENT_LENGTH_DOWNLOAD_T, &length);
   result.content_length = length;
   if (code != CURLE_OK) {
-    result.error = code == CURLE_ABORTED_BY_CALLBACK ? "aborted" : curl_easy_strerror(code);
+    result.too_large = sink.over || code == CURLE_FILESIZE_EXCEEDED;
+    result.timed_out = code == CURLE_OPERATION_TIMEDOUT;
+    if (result.too_large) {
+      result.error = "body over " + std::to_string(limits.max_body_bytes) + " bytes";
+    } else if (code == CURLE_ABORTED_BY_CALLBACK) {
+      result.error = "aborted";
+    } else {
+      result.error = curl_easy_strerror(code);
+    }
     // An answer cut short is no answer.
     result.status = 0;
   }

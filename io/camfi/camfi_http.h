@@ -19,8 +19,24 @@ struct HttpResult {
   std::vector<std::uint8_t> body;
   // The Content-Length header; -1 when absent.
   long long content_length = -1;
+  // Why a transfer was abandoned on our side (`error` says it too).
+  bool too_large = false;
+  bool timed_out = false;
 
   std::string BodyText() const { return std::string(body.begin(), body.end()); }
+};
+
+// What one call may cost; a call over a bound ends with an error. Every call
+// sets `total_seconds` and `max_body_bytes` (> 0): there is no unbounded
+// call.
+struct HttpLimits {
+  // The whole call, from connecting to the last byte.
+  double total_seconds = 0;
+  // > 0: also ends a transfer that moves no byte for this long (whole
+  // seconds: libcurl's resolution).
+  double idle_seconds = 0;
+  // The body (announced by Content-Length, or counted as it arrives).
+  std::uint64_t max_body_bytes = 0;
 };
 
 class CamfiHttp {
@@ -30,17 +46,13 @@ class CamfiHttp {
   // scheme is not known (camfi.md 2.3).
   CamfiHttp(std::string host, int port, std::string password);
 
-  // `timeout_seconds` bounds the whole call; `idle_seconds` > 0 instead
-  // aborts a transfer that moves no byte for that long (large downloads).
   // A set `*abort` ends a transfer early (error "aborted").
-  HttpResult Get(const std::string& target, double timeout_seconds,
-                 double idle_seconds = 0,
+  HttpResult Get(const std::string& target, const HttpLimits& limits,
                  const std::atomic<bool>* abort = nullptr) const;
-  HttpResult Post(const std::string& target, double timeout_seconds) const;
+  HttpResult Post(const std::string& target, const HttpLimits& limits) const;
 
  private:
-  HttpResult Perform(const std::string& method, const std::string& target,
-                     double timeout_seconds, double idle_seconds,
+  HttpResult Perform(const std::string& method, const std::string& target, const HttpLimits& limits,
                      const std::atomic<bool>* abort) const;
 
   std::string base_url_;

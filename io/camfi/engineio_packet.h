@@ -27,8 +27,14 @@ struct EngineIoOpen {
   int ping_timeout_ms = 60000;
 };
 
-// nullopt unless `packet` is a well-formed open packet.
-std::optional<EngineIoOpen> ParseEngineIoOpen(const std::string& packet);
+// Bounds of the ping timing an open packet may set (ms): a zero would make
+// the watchdog fire at once, and an hour disables it in practice.
+constexpr int kMaxEngineIoPingMs = 3600 * 1000;
+
+// nullopt unless `packet` is a well-formed open packet whose JSON nests no
+// deeper than `max_json_depth` and whose ping timing is within 1 ms ..
+// kMaxEngineIoPingMs.
+std::optional<EngineIoOpen> ParseEngineIoOpen(const std::string& packet, int max_json_depth);
 std::string FormatEngineIoOpen(const EngineIoOpen& open);
 
 struct SocketIoEvent {
@@ -37,8 +43,9 @@ struct SocketIoEvent {
 };
 
 // nullopt unless `packet` is a "42[name, args...]" event on the default
-// namespace (a message id between "42" and "[" is accepted and ignored).
-std::optional<SocketIoEvent> ParseSocketIoEvent(const std::string& packet);
+// namespace (a message id between "42" and "[" is accepted and ignored),
+// its JSON nested no deeper than `max_json_depth`.
+std::optional<SocketIoEvent> ParseSocketIoEvent(const std::string& packet, int max_json_depth);
 std::string FormatSocketIoEvent(const std::string& name, const nlohmann::json& args);
 
 }  // namespace flysfm

@@ -23,13 +23,8 @@ namespace {
 using Clock = std::chrono::steady_clock;
 
 constexpr int kText = 0x1;
-constexpr int kBinary = 0x2;
 constexpr int kClose = 0x8;
-constexpr int kPing = 0x9;
 constexpr int kPong = 0xA;
-// The event channel carries short text packets; anything larger is a
-// corrupt length field, not a message.
-constexpr std::uint64_t kMaxFrame = 16u << 20;
 
 int RemainingMs(Clock::time_point deadline) {
   const auto left =
@@ -147,8 +142,8 @@ std::string WebSocketAcceptKey(const std::string& key) {
 WebSocket::WebSocket(WebSocket&& other) noexcept
     : fd_(other.fd_),
       mask_(other.mask_),
-      buffer_(std::move(other.buffer_)),
-      fragments_(std::move(other.fragments_)) {
+      reader_(std::move(other.reader_)),
+      error_(std::move(other.error_)) {
   other.fd_ = -1;
 }
 
@@ -157,8 +152,8 @@ WebSocket& WebSocket::operator=(WebSocket&& other) noexcept {
     Close();
     fd_ = other.fd_;
     mask_ = other.mask_;
-    buffer_ = std::move(other.buffer_);
-    fragments_ = std::move(other.fragments_);
+    reader_ = std::move(other.reader_);
+    error_ = std::move(other.error_);
     other.fd_ = -1;
   }
   return *this;
@@ -174,9 +169,9 @@ void WebSocket::Close() {
   }
 }
 
-WebSocket WebSocket::Connect(const std::string& host, int port,
-                             const std::string& resource, int timeout_ms) {
-  WebSocket socket(ConnectTcp(host, port, timeout_ms), /*mask=*/true);
+WebSocket WebSocket::Connect(const std::string& host, int port, const std::string& resource,
+                             int timeout_ms, std::size_t max_message_bytes) {
+  WebSocket socket(ConnectTcp(host, port, timeout_ms), /*mask=*/true, max_message_bytes);
   std::random_device random;
   unsigned char nonce[16];
   for (unsigned char& byte : nonce) byte = static_cast<unsigned char>(random());
@@ -190,9 +185,11 @@ WebSocket WebSocket::Connect(const std::string& host, int port,
     throw std::runtime_error("connection closed while sending the upgrade request");
   }
   std::string head;
-  if (!ReadHttpHead(socket.fd_, timeout_ms, &head, &socket.buffer_)) {
+  std::string rest;
+  if (!ReadHttpHead(socket.fd_, timeout_ms, &head, &rest)) {
     throw std::runtime_error("no answer to the WebSocket upgrade request");
   }
+  socket.reader_.Append(rest.data(), rest.size());
   if (head.compare(0, 12, "HTTP/1.1 101") != 0) {
     throw std::runtime_error("WebSocket upgrade refused: " + head.substr(0, head.find('\r')));
   }
@@ -202,10 +199,13 @@ WebSocket WebSocket::Connect(const std::string& host, int port,
   return socket;
 }
 
-std::optional<WebSocket> WebSocket::Accept(int fd, int timeout_ms, std::string* target) {
-  WebSocket socket(fd, /*mask=*/false);
+std::optional<WebSocket> WebSocket::Accept(int fd, int timeout_ms, std::string* target,
+                                           std::size_t max_message_bytes) {
+  WebSocket socket(fd, /*mask=*/false, max_message_bytes);
   std::string head;
-  if (!ReadHttpHead(fd, timeout_ms, &head, &socket.buffer_)) return std::nullopt;
+  std::string rest;
+  if (!ReadHttpHead(fd, timeout_ms, &head, &rest)) return std::nullopt;
+  socket.reader_.Append(rest.data(), rest.size());
   const std::size_t space1 = head.find(' ');
   const std::size_t space2 = head.find(' ', space1 + 1);
   const std::string key = HeaderValue(head, "Sec-WebSocket-Key");
@@ -274,75 +274,50 @@ bool WebSocket::Fill(int timeout_ms, bool* timed_out) {
   char chunk[4096];
   const ssize_t n = ready > 0 ? ::recv(fd_, chunk, sizeof(chunk), 0) : -1;
   if (n <= 0) return false;
-  buffer_.append(chunk, std::size_t(n));
+  reader_.Append(chunk, std::size_t(n));
   return true;
 }
 
 WebSocket::Status WebSocket::Receive(std::string* message, int timeout_ms) {
   const Clock::time_point deadline = Clock::now() + std::chrono::milliseconds(timeout_ms);
+  bool filled = false;
   while (fd_ >= 0) {
-    // Parse one frame from the buffer when it is complete.
-    const auto* b = reinterpret_cast<const unsigned char*>(buffer_.data());
-    std::size_t header = 2;
-    std::uint64_t length = 0;
-    bool complete = false;
-    if (buffer_.size() >= 2) {
-      length = b[1] & 0x7F;
-      if (length == 126) header += 2;
-      if (length == 127) header += 8;
-      const bool masked = (b[1] & 0x80) != 0;
-      if (masked) header += 4;
-      if (buffer_.size() >= header) {
-        if (length == 126) length = (std::uint64_t(b[2]) << 8) | b[3];
-        if (length == 127) {
-          length = 0;
-          for (int i = 0; i < 8; ++i) length = (length << 8) | b[2 + i];
-        }
-        if (length > kMaxFrame) {
-          Close();
-          return Status::kClosed;
-        }
-        complete = buffer_.size() >= header + length;
-      }
-    }
-    if (complete) {
-      const bool fin = (b[0] & 0x80) != 0;
-      const int opcode = b[0] & 0x0F;
-      std::string payload = buffer_.substr(header, std::size_t(length));
-      if ((b[1] & 0x80) != 0) {
-        const unsigned char* key = b + header - 4;
-        for (std::size_t i = 0; i < payload.size(); ++i) payload[i] = char(payload[i] ^ key[i % 4]);
-      }
-      buffer_.erase(0, header + std::size_t(length));
-      if (opcode == kClose) {
+    std::string payload;
+    std::string problem;
+    switch (reader_.Next(&payload, &problem)) {
+      case WebSocketReader::Item::kMessage:
+        *message = std::move(payload);
+        return Status::kMessage;
+      case WebSocketReader::Item::kPing:
+        SendFrame(kPong, payload);
+        break;
+      case WebSocketReader::Item::kPong:
+        break;
+      case WebSocketReader::Item::kClose:
         SendFrame(kClose, "");
         Close();
         return Status::kClosed;
-      }
-      if (opcode == kPing) {
-        SendFrame(kPong, payload);
+      case WebSocketReader::Item::kError:
+        error_ = problem;
+        Close();
+        return Status::kClosed;
+      case WebSocketReader::Item::kNeedMore: {
+        // A peer trickling a frame byte by byte is cut off at the deadline
+        // too; the part read stays buffered for the next call.
+        if (filled && RemainingMs(deadline) == 0) return Status::kTimeout;
+        filled = true;
+        bool timed_out = false;
+        if (!Fill(RemainingMs(deadline), &timed_out)) {
+          Close();
+          return Status::kClosed;
+        }
+        if (timed_out) return Status::kTimeout;
         continue;
       }
-      if (opcode == kPong) continue;
-      fragments_ += payload;
-      if (fin && (opcode == kText || opcode == kBinary || opcode == 0)) {
-        *message = std::move(fragments_);
-        fragments_.clear();
-        return Status::kMessage;
-      }
-      continue;
     }
-    const int left = RemainingMs(deadline);
-    bool timed_out = false;
-    if (!Fill(left, &timed_out)) {
-      Close();
-      return Status::kClosed;
-    }
-    if (timed_out) {
-      // A frame half read stays in the buffer (and a fragmented message in
-      // fragments_) for the next call.
-      return Status::kTimeout;
-    }
+    // Only control frames so far: a peer flooding them must not hold the
+    // caller past its deadline.
+    if (RemainingMs(deadline) == 0) return Status::kTimeout;
   }
   return Status::kClosed;
 }

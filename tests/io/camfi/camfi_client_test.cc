@@ -1,13 +1,18 @@
 #include "io/camfi/camfi_client.h"
 
 #include <algorithm>
+#include <atomic>
+#include <cerrno>
 #include <fstream>
 #include <set>
+#include <sstream>
 #include <thread>
 
 #include <catch2/catch.hpp>
 
 #include "io/camfi/camfi_emulator.h"
+#include "io/camfi/camfi_journal.h"
+#include "io/camfi/engineio_packet.h"
 #include "io/sources/image_markers.h"
 #include "tests/io/camfi/camfi_fixture.h"
 #include "tests/testing/temp_dir.h"
@@ -17,8 +22,12 @@ namespace {
 
 constexpr int kShots = 7;
 
-CamfiEmulatorOptions FastEmulator(const std::vector<std::filesystem::path>& images) {
-  CamfiEmulatorOptions options = testing::LoopbackEmulator(images, 0.1, 250, 250);
+// Shots every 0.1 s, or only by Shoot() with `kByHand`.
+constexpr double kByHand = 1000;
+
+CamfiEmulatorOptions FastEmulator(const std::vector<std::filesystem::path>& images,
+                                  double interval_seconds = 0.1) {
+  CamfiEmulatorOptions options = testing::LoopbackEmulator(images, interval_seconds, 250, 250);
   options.fault_every = 3;
   return options;
 }
@@ -38,6 +47,12 @@ CamfiOptions FastClient(const CamfiEmulator& emulator) {
   return options;
 }
 
+// Frames from `source` until `count` or `seconds`.
+std::vector<Frame> Pull(CamfiSource* source, int count, double seconds) {
+  return testing::PullFrames(
+      source, [source] { source->Stop(); }, count, seconds);
+}
+
 std::vector<std::string> JournalLines(const std::filesystem::path& store, const std::string& kind) {
   std::ifstream in(store / "journal.tsv");
   std::vector<std::string> lines;
@@ -55,6 +70,28 @@ int NumImageFiles(const std::filesystem::path& store) {
   return count;
 }
 
+JournalContents ReadJournal(const std::filesystem::path& store) {
+  std::ifstream in(store / "journal.tsv", std::ios::binary);
+  std::ostringstream text;
+  text << in.rdbuf();
+  return ParseJournal(text.str());
+}
+
+int NumJournalled(const JournalContents& contents) {
+  return int(std::count_if(contents.records.begin(), contents.records.end(),
+                           [](const auto& r) { return r.kind == JournalRecord::Kind::kStored; }));
+}
+
+// Waits up to `seconds` for `done`; false when it never held.
+bool WaitFor(const std::function<bool()>& done, double seconds) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+  while (!done()) {
+    if (std::chrono::steady_clock::now() > deadline) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  return true;
+}
+
 struct Outcome {
   CamfiEmulatorStats emulator;
   CamfiStats client;
@@ -62,7 +99,8 @@ struct Outcome {
 
 // Runs a client against an emulator with `faults` until every shot is in
 // the store, then checks what every fault must leave intact: each shot
-// stored once, byte-identical, downloaded once, through %2F-encoded paths.
+// stored once, byte-identical, downloaded once (besides rechecks), through
+// %2F-encoded paths.
 Outcome RunWithFaults(const std::set<CamfiFault>& faults,
                                  const std::string& password = "") {
   const std::filesystem::path dir = testing::MakeTempDir("camfi_client");
@@ -78,7 +116,7 @@ Outcome RunWithFaults(const std::set<CamfiFault>& faults,
   CamfiStats client_stats;
   {
     CamfiSource source(client_options, store);
-    frames = testing::PullFrames(&source, [&] { source.Stop(); }, kShots, 15);
+    frames = Pull(&source, kShots, 15);
     // Long enough for another listing and any duplicate or late event.
     std::this_thread::sleep_for(std::chrono::milliseconds(1200));
     client_stats = source.stats();
@@ -99,7 +137,9 @@ Outcome RunWithFaults(const std::set<CamfiFault>& faults,
     CHECK(ReadFileBytes(stored) == ReadFileBytes(images[std::size_t(i)]));
   }
   const CamfiEmulatorStats stats = emulator.stats();
-  CHECK(stats.raw_served == kShots);
+  // Every download is a shot's first, or a counted recheck of a stored path
+  // that an event named again (a late or repeated event).
+  CHECK(stats.raw_served == kShots + client_stats.rechecked);
   const std::vector<std::string> log = emulator.RequestLog();
   CHECK(std::count(log.begin(), log.end(),
                    "GET /raw/%2Fstore_00010001%2FDCIM%2F100CANON%2FIMG_0001.JPG") >= 1);
@@ -198,7 +238,7 @@ TEST_CASE("camfi: Engine.IO v4 firmware as an option") {
   CamfiOptions client_options = FastClient(emulator);
   client_options.engine_io_version = 4;
   CamfiSource source(client_options, dir / "store");
-  CHECK(testing::PullFrames(&source, [&] { source.Stop(); }, 3, 5).size() == 3);
+  CHECK(Pull(&source, 3, 5).size() == 3);
   // Answering the server's pings keeps the one session alive.
   std::this_thread::sleep_for(std::chrono::milliseconds(800));
   CHECK(source.stats().sessions == 1);
@@ -229,13 +269,15 @@ TEST_CASE("camfi: a new source on the same store replays it and fetches nothing 
   CamfiEmulator emulator(emulator_options);
   const std::filesystem::path store = dir / "store";
   std::vector<Frame> first;
+  int first_rechecks = 0;
   {
     CamfiSource source(FastClient(emulator), store);
-    first = testing::PullFrames(&source, [&] { source.Stop(); }, 3, 10);
+    first = Pull(&source, 3, 10);
+    first_rechecks = source.stats().rechecked;
   }
   REQUIRE(first.size() == 3);
   CamfiSource source(FastClient(emulator), store);
-  const std::vector<Frame> second = testing::PullFrames(&source, [&] { source.Stop(); }, 8, 15);
+  const std::vector<Frame> second = Pull(&source, 8, 15);
   REQUIRE(second.size() == 8);
   CHECK(source.stats().replayed >= 3);
   for (std::size_t i = 0; i < first.size(); ++i) CHECK(second[i].name == first[i].name);
@@ -243,7 +285,9 @@ TEST_CASE("camfi: a new source on the same store replays it and fetches nothing 
   for (const Frame& frame : second) names.insert(frame.name);
   CHECK(names.size() == 8);
   std::this_thread::sleep_for(std::chrono::milliseconds(700));
-  CHECK(emulator.stats().raw_served == 8);
+  // An event that comes after a listing fetched its shot is a recheck: the
+  // only downloads besides one per shot.
+  CHECK(emulator.stats().raw_served == 8 + first_rechecks + source.stats().rechecked);
   CHECK(JournalLines(store, "stored\t").size() == 8);
 }
 
@@ -255,14 +299,260 @@ TEST_CASE("camfi: files on the card before a fresh store are ignored unless aske
   {
     CamfiSource source(FastClient(emulator), dir / "ignore");
     // Two shots were on the card before; one more comes after connecting.
-    const std::vector<Frame> frames = testing::PullFrames(&source, [&] { source.Stop(); }, 3, 3);
+    const std::vector<Frame> frames = Pull(&source, 3, 3);
     REQUIRE(frames.size() == 1);
     CHECK(frames[0].name == StoreNameForDevicePath(emulator.DevicePath(2)));
   }
   CamfiOptions fetch_all = FastClient(emulator);
   fetch_all.fetch_existing = true;
   CamfiSource source(fetch_all, dir / "fetch");
-  CHECK(testing::PullFrames(&source, [&] { source.Stop(); }, 3, 5).size() == 3);
+  CHECK(Pull(&source, 3, 5).size() == 3);
+}
+
+TEST_CASE("camfi: a full disk rejects the shot, and shots flow again once space is back") {
+  for (const bool journal_only : {false, true}) {
+    CAPTURE(journal_only);
+    const std::filesystem::path dir = testing::MakeTempDir("camfi_full_disk");
+    const std::vector<std::filesystem::path> images = testing::WriteTestJpegs(dir, 3);
+    CamfiEmulatorOptions emulator_options = FastEmulator(images, kByHand);
+    CamfiEmulator emulator(emulator_options);
+    CamfiOptions options = FastClient(emulator);
+    std::atomic<bool> full{false};
+    // ENOSPC for every write, or for the journal's only (the shot's file is
+    // then written and must be taken back).
+    options.store_write_fault = [&](const std::filesystem::path& file) {
+      return full && (!journal_only || file.filename() == "journal.tsv") ? ENOSPC : 0;
+    };
+    const std::filesystem::path store = dir / "store";
+    CamfiSource source(options, store);
+    REQUIRE(WaitFor([&] { return source.stats().sessions == 1; }, 5));
+    full = true;
+    for (int i = 0; i < 3; ++i) emulator.Shoot();
+    // Shots arrive, none can be stored; the session goes on.
+    REQUIRE(WaitFor([&] { return source.stats().store_failures >= 3; }, 8));
+    CHECK(source.stats().stored == 0);
+    CHECK(source.stats().session_failures == 0);
+    CHECK(NumImageFiles(store) == 0);
+    full = false;
+    const std::vector<Frame> frames = Pull(&source, 3, 10);
+    REQUIRE(frames.size() == 3);
+    for (int i = 0; i < 3; ++i) {
+      CHECK(ReadFileBytes(store / StoreNameForDevicePath(emulator.DevicePath(i))) ==
+            ReadFileBytes(images[std::size_t(i)]));
+    }
+    CHECK(NumImageFiles(store) == 3);
+    const JournalContents journal = ReadJournal(store);
+    CHECK(journal.skipped.empty());
+    CHECK(journal.complete_bytes == std::filesystem::file_size(store / "journal.tsv"));
+    CHECK(NumJournalled(journal) == 3);
+    for (const auto& entry : std::filesystem::directory_iterator(store)) {
+      CHECK(entry.path().extension() != ".tmp");
+    }
+  }
+}
+
+TEST_CASE("camfi: a swapped card's shots under known paths are new shots") {
+  for (const bool announced : {true, false}) {
+    CAPTURE(announced);
+    const std::filesystem::path dir = testing::MakeTempDir("camfi_swap");
+    const std::vector<std::filesystem::path> images = testing::WriteTestJpegs(dir, 4);
+    CamfiEmulatorOptions emulator_options = FastEmulator(images, kByHand);
+    if (!announced) {
+      emulator_options.faults = {CamfiFault::kMissing};
+      emulator_options.fault_every = 1;
+    }
+    CamfiEmulator emulator(emulator_options);
+    CamfiOptions options = FastClient(emulator);
+    options.reconcile_seconds = 0.2;
+    const std::filesystem::path store = dir / "store";
+    CamfiSource source(options, store);
+    REQUIRE(WaitFor([&] { return source.stats().sessions > 0; }, 5));
+    emulator.Shoot();
+    emulator.Shoot();
+    REQUIRE(Pull(&source, 2, 5).size() == 2);
+    emulator.SwapCard();
+    // A listing of the empty card.
+    std::this_thread::sleep_for(std::chrono::milliseconds(600));
+    emulator.Shoot();
+    emulator.Shoot();
+    const std::vector<Frame> frames = Pull(&source, 2, 5);
+    REQUIRE(frames.size() == 2);
+    // Same device paths as the first card's shots, new bytes, new names.
+    CHECK(frames[0].name == StoreNameForDevicePath(emulator.DevicePath(0), 2));
+    CHECK(frames[0].name == "store_00010001_DCIM_100CANON_IMG_0001~2.JPG");
+    CHECK(ReadFileBytes(frames[0].path) == ReadFileBytes(images[2]));
+    CHECK(ReadFileBytes(frames[1].path) == ReadFileBytes(images[3]));
+    CHECK(ReadFileBytes(store / StoreNameForDevicePath(emulator.DevicePath(0))) ==
+          ReadFileBytes(images[0]));
+    CHECK(source.stats().reused_paths == 2);
+    CHECK(NumJournalled(ReadJournal(store)) == 4);
+    // The same bytes announced again are a duplicate, not a shot.
+    const int duplicates = source.stats().duplicate_events;
+    emulator.SendPacket(
+        FormatSocketIoEvent("file_added", nlohmann::json::array({emulator.DevicePath(0)})));
+    REQUIRE(WaitFor([&] { return source.stats().duplicate_events > duplicates; }, 5));
+    CHECK(source.stats().stored == 4);
+  }
+}
+
+TEST_CASE("camfi: a device that pages by less than asked is listed to the end") {
+  const std::filesystem::path dir = testing::MakeTempDir("camfi_paging");
+  CamfiEmulatorOptions emulator_options = FastEmulator(testing::WriteTestJpegs(dir, 8));
+  emulator_options.files_page_limit = 3;
+  CamfiEmulator emulator(emulator_options);
+  for (int i = 0; i < 8; ++i) emulator.Shoot();
+  CamfiOptions options = FastClient(emulator);
+  options.fetch_existing = true;
+  CamfiSource source(options, dir / "store");
+  CHECK(Pull(&source, 8, 5).size() == 8);
+  CHECK(source.stats().found_by_listing == 8);
+}
+
+TEST_CASE("camfi: a device that ignores start does not loop the listing") {
+  const std::filesystem::path dir = testing::MakeTempDir("camfi_ignore_start");
+  CamfiEmulatorOptions emulator_options = FastEmulator(testing::WriteTestJpegs(dir, 4));
+  emulator_options.files_ignore_start = true;
+  emulator_options.interval_seconds = kByHand;
+  CamfiEmulator emulator(emulator_options);
+  emulator.Shoot();
+  emulator.Shoot();
+  CamfiOptions options = FastClient(emulator);
+  options.fetch_existing = true;
+  options.list_page = 2;  // every page full
+  options.reconcile_seconds = 0.2;
+  CamfiSource source(options, dir / "store");
+  REQUIRE(Pull(&source, 2, 5).size() == 2);
+  // Events are still handled: the session is live, not listing.
+  emulator.Shoot();
+  CHECK(Pull(&source, 1, 5).size() == 1);
+  const std::vector<std::string> log = emulator.RequestLog();
+  const auto listings = std::count_if(log.begin(), log.end(), [](const std::string& line) {
+    return line.rfind("GET /files/", 0) == 0;
+  });
+  // Two pages a listing, one listing each 0.2 s, for a few seconds at most.
+  CHECK(listings < 100);
+  CHECK(source.stats().session_failures == 0);
+}
+
+TEST_CASE("camfi: a failing listing is counted and retried, the session goes on") {
+  const std::vector<std::pair<int, std::string>> failures = {
+      {500, R"({"message":"camera busy"})"},
+      {200, "<html>busy</html>"},
+      {200, R"([1,2,3])"},
+      {200, std::string(200, '[') + std::string(200, ']')}};
+  for (const auto& [status, body] : failures) {
+    CAPTURE(status, body);
+    const std::filesystem::path dir = testing::MakeTempDir("camfi_listing_failure");
+    CamfiEmulatorOptions emulator_options = FastEmulator(testing::WriteTestJpegs(dir, 2));
+    // Shots only the listing can find.
+    emulator_options.faults = {CamfiFault::kMissing};
+    emulator_options.fault_every = 1;
+    emulator_options.files_failures = 3;
+    emulator_options.files_failure_status = status;
+    emulator_options.files_failure_body = body;
+    CamfiEmulator emulator(emulator_options);
+    CamfiOptions options = FastClient(emulator);
+    options.fetch_existing = true;
+    options.reconcile_seconds = 0.2;
+    CamfiSource source(options, dir / "store");
+    CHECK(Pull(&source, 2, 8).size() == 2);
+    CHECK(emulator.stats().files_failed == 3);
+    CHECK(source.stats().listing_failures == 3);
+    CHECK(source.stats().session_failures == 0);
+  }
+}
+
+TEST_CASE("camfi: a shot over max_shot_bytes is rejected once, not fetched at every listing") {
+  const std::filesystem::path dir = testing::MakeTempDir("camfi_oversized");
+  const std::vector<std::filesystem::path> images = testing::WriteTestJpegs(dir, 1);
+  CamfiEmulator emulator(FastEmulator(images));
+  CamfiOptions options = FastClient(emulator);
+  options.max_shot_bytes = std::filesystem::file_size(images[0]) - 1;
+  options.reconcile_seconds = 0.2;
+  CamfiSource source(options, dir / "store");
+  REQUIRE(WaitFor([&] { return source.stats().oversized == 1; }, 5));
+  // Several listings later, still one download.
+  std::this_thread::sleep_for(std::chrono::milliseconds(800));
+  CHECK(source.stats().oversized == 1);
+  CHECK(source.stats().stored == 0);
+  const std::vector<std::string> log = emulator.RequestLog();
+  CHECK(std::count_if(log.begin(), log.end(), [](const std::string& line) {
+          return line.rfind("GET /raw/", 0) == 0;
+        }) == 1);
+}
+
+TEST_CASE("camfi: a trickling download is cut at its total time and fetched again") {
+  const std::filesystem::path dir = testing::MakeTempDir("camfi_trickle");
+  CamfiEmulatorOptions emulator_options = FastEmulator(testing::WriteTestJpegs(dir, 2));
+  emulator_options.faults = {CamfiFault::kTrickle};
+  emulator_options.fault_every = 1;
+  CamfiEmulator emulator(emulator_options);
+  CamfiOptions options = FastClient(emulator);
+  // One byte a second never looks idle; only the total bound ends it.
+  options.download_idle_seconds = 30;
+  options.download_total_seconds = 1;
+  CamfiSource source(options, dir / "store");
+  CHECK(Pull(&source, 2, 8).size() == 2);
+  CHECK(emulator.stats().bodies_trickled == 2);
+  CHECK(source.stats().timed_out_downloads == 2);
+}
+
+TEST_CASE("camfi: hostile event packets are rejected and counted, shots still flow") {
+  const std::filesystem::path dir = testing::MakeTempDir("camfi_hostile_events");
+  CamfiEmulatorOptions emulator_options = FastEmulator(testing::WriteTestJpegs(dir, 2), kByHand);
+  CamfiEmulator emulator(emulator_options);
+  CamfiOptions options = FastClient(emulator);
+  options.max_event_message_bytes = 4096;
+  CamfiSource source(options, dir / "store");
+  REQUIRE(WaitFor([&] { return source.stats().sessions == 1; }, 5));
+  emulator.SendPacket("42" + std::string(1000, '[') + std::string(1000, ']'));
+  REQUIRE(WaitFor([&] { return source.stats().rejected_packets == 1; }, 5));
+  CHECK(source.stats().session_failures == 0);
+  // Over the message bound: the channel is dropped and opened again.
+  emulator.SendPacket(std::string(8192, 'x'));
+  REQUIRE(WaitFor([&] { return source.stats().rejected_packets == 2; }, 5));
+  REQUIRE(WaitFor([&] { return source.stats().sessions == 2; }, 5));
+  emulator.Shoot();
+  emulator.Shoot();
+  CHECK(Pull(&source, 2, 5).size() == 2);
+}
+
+TEST_CASE("camfi: a restart reads past a torn last record and a malformed one") {
+  const std::filesystem::path dir = testing::MakeTempDir("camfi_journal_restart");
+  const std::vector<std::filesystem::path> images = testing::WriteTestJpegs(dir, 3);
+  CamfiEmulatorOptions emulator_options = FastEmulator(images, kByHand);
+  CamfiEmulator emulator(emulator_options);
+  const std::filesystem::path store = dir / "store";
+  {
+    CamfiSource source(FastClient(emulator), store);
+    REQUIRE(WaitFor([&] { return source.stats().sessions == 1; }, 5));
+    emulator.Shoot();
+    REQUIRE(Pull(&source, 1, 5).size() == 1);
+  }
+  // A record with a bad number, and one a kill -9 cut mid-append.
+  std::ofstream(store / "journal.tsv", std::ios::app)
+      << "stored\t/x.JPG\tx.JPG\tabc\n"
+      << "stored\t/store_00010001/DCIM/100CANON/IMG_0002.JPG\tstore_0";
+  CamfiSource source(FastClient(emulator), store);
+  CHECK(source.stats().replayed == 1);
+  CHECK(source.stats().journal_skipped == 1);
+  CHECK(source.stats().journal_torn == 1);
+  REQUIRE(WaitFor([&] { return source.stats().sessions == 1; }, 5));
+  emulator.Shoot();
+  REQUIRE(Pull(&source, 2, 5).size() == 2);
+  // The next record starts on a line of its own.
+  const JournalContents journal = ReadJournal(store);
+  CHECK(journal.skipped.size() == 1);
+  CHECK(NumJournalled(journal) == 2);
+  CHECK(journal.complete_bytes == std::filesystem::file_size(store / "journal.tsv"));
+}
+
+TEST_CASE("StoreNameForDevicePath stays one file inside the store") {
+  CHECK(StoreNameForDevicePath("/..") == "_..");
+  CHECK(StoreNameForDevicePath("/") == "_");
+  CHECK(StoreNameForDevicePath("/a/../../b.JPG") == "a_.._.._b.JPG");
+  CHECK(StoreNameForDevicePath("/" + std::string(300, 'a') + ".JPG").size() == 200);
+  CHECK(StoreNameForDevicePath("/DCIM/IMG_0001.JPG", 3) == "DCIM_IMG_0001~3.JPG");
 }
 
 }  // namespace

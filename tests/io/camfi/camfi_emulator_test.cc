@@ -5,6 +5,7 @@
 #include <catch2/catch.hpp>
 
 #include "io/camfi/camfi_http.h"
+#include "io/camfi/bounded_json.h"
 #include "io/camfi/engineio_packet.h"
 #include "io/camfi/websocket.h"
 #include "io/sources/image_markers.h"
@@ -42,24 +43,28 @@ TEST_CASE("The emulator serves the card under camera-style paths") {
   CamfiEmulator emulator(options);
   CHECK(emulator.DevicePath(0) == "/store_00010001/DCIM/100CANON/IMG_0001.JPG");
   const CamfiHttp http("127.0.0.1", emulator.http_port(), "");
-  const HttpResult info = http.Get("/info", 2);
+  const HttpResult info = http.Get("/info", testing::kQuickCall);
   CHECK(info.status == 200);
   CHECK(nlohmann::json::parse(info.BodyText()).contains("version"));
-  CHECK(nlohmann::json::parse(http.Get("/camera", 2).BodyText())["model"] != "");
-  CHECK(http.Get("/files/0/100", 2).BodyText() == "[]");
+  CHECK(nlohmann::json::parse(http.Get("/camera", testing::kQuickCall).BodyText())["model"] != "");
+  CHECK(http.Get("/files/0/100", testing::kQuickCall).BodyText() == "[]");
   emulator.Shoot();
   emulator.Shoot();
-  const nlohmann::json files = nlohmann::json::parse(http.Get("/files/0/100", 2).BodyText());
+  const nlohmann::json files =
+      nlohmann::json::parse(http.Get("/files/0/100", testing::kQuickCall).BodyText());
   REQUIRE(files.size() == 2);
   CHECK(files[1] == emulator.DevicePath(1));
-  CHECK(nlohmann::json::parse(http.Get("/files/1/100", 2).BodyText()).size() == 1);
+  CHECK(nlohmann::json::parse(http.Get("/files/1/100", testing::kQuickCall).BodyText()).size() ==
+        1);
   // The path must come as one %2F-encoded segment.
-  const HttpResult raw = http.Get("/raw/" + EncodeDevicePath(emulator.DevicePath(1)), 2);
+  const HttpResult raw =
+      http.Get("/raw/" + EncodeDevicePath(emulator.DevicePath(1)), testing::kQuickCall);
   CHECK(raw.status == 200);
   CHECK(raw.body == ReadFileBytes(options.images[1]));
-  CHECK(http.Get("/raw/" + emulator.DevicePath(1), 2).status == 500);
+  CHECK(http.Get("/raw/" + emulator.DevicePath(1), testing::kQuickCall).status == 500);
   // Not yet shot.
-  CHECK(http.Get("/raw/" + EncodeDevicePath(emulator.DevicePath(2)), 2).status == 500);
+  CHECK(http.Get("/raw/" + EncodeDevicePath(emulator.DevicePath(2)), testing::kQuickCall).status ==
+        500);
 }
 
 TEST_CASE("The emulator's event channel speaks Engine.IO v3") {
@@ -72,7 +77,7 @@ TEST_CASE("The emulator's event channel speaks Engine.IO v3") {
       WebSocket::Connect("127.0.0.1", emulator.event_port(), EngineIoResource(3), 2000);
   std::string packet;
   REQUIRE(socket.Receive(&packet, 2000) == WebSocket::Status::kMessage);
-  const std::optional<EngineIoOpen> open = ParseEngineIoOpen(packet);
+  const std::optional<EngineIoOpen> open = ParseEngineIoOpen(packet, kDefaultMaxJsonDepth);
   REQUIRE(open);
   CHECK(open->ping_interval_ms == 300);
   CHECK(open->ping_timeout_ms == 400);
@@ -84,7 +89,7 @@ TEST_CASE("The emulator's event channel speaks Engine.IO v3") {
   // A remote trigger (/takepic/true) is announced.
   emulator.Shoot();
   REQUIRE(socket.Receive(&packet, 2000) == WebSocket::Status::kMessage);
-  const std::optional<SocketIoEvent> event = ParseSocketIoEvent(packet);
+  const std::optional<SocketIoEvent> event = ParseSocketIoEvent(packet, kDefaultMaxJsonDepth);
   REQUIRE(event);
   CHECK(event->name == "file_added");
   CHECK(event->args[0] == emulator.DevicePath(0));
@@ -96,11 +101,15 @@ TEST_CASE("The emulator's auth and legacy firmware faults") {
   options.faults = {CamfiFault::kAuth, CamfiFault::kLegacyInfo};
   options.password = "secret";
   CamfiEmulator emulator(options);
-  CHECK(CamfiHttp("127.0.0.1", emulator.http_port(), "").Get("/camera", 2).status == 401);
-  CHECK(CamfiHttp("127.0.0.1", emulator.http_port(), "nope").Get("/camera", 2).status == 401);
+  CHECK(
+      CamfiHttp("127.0.0.1", emulator.http_port(), "").Get("/camera", testing::kQuickCall).status ==
+      401);
+  CHECK(CamfiHttp("127.0.0.1", emulator.http_port(), "nope")
+            .Get("/camera", testing::kQuickCall)
+            .status == 401);
   const CamfiHttp http("127.0.0.1", emulator.http_port(), "secret");
-  CHECK(http.Get("/camera", 2).status == 200);
-  CHECK(http.Get("/info", 2).status == 404);
+  CHECK(http.Get("/camera", testing::kQuickCall).status == 200);
+  CHECK(http.Get("/info", testing::kQuickCall).status == 404);
   CHECK(emulator.stats().unauthorized >= 2);
 }
 
@@ -132,7 +141,7 @@ TEST_CASE("The emulator's Engine.IO v4 mode: the server pings and the client joi
   WebSocket socket =
       WebSocket::Connect("127.0.0.1", emulator.event_port(), EngineIoResource(4), 2000);
   REQUIRE(socket.Receive(&packet, 2000) == WebSocket::Status::kMessage);
-  REQUIRE(ParseEngineIoOpen(packet));
+  REQUIRE(ParseEngineIoOpen(packet, kDefaultMaxJsonDepth));
   socket.Send("40");
   REQUIRE(socket.Receive(&packet, 2000) == WebSocket::Status::kMessage);
   CHECK(packet.rfind("40{", 0) == 0);

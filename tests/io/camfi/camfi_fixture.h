@@ -7,9 +7,13 @@
 #include <vector>
 
 #include "io/camfi/camfi_emulator.h"
+#include "io/camfi/camfi_http.h"
 #include "tests/io/sources/source_fixture.h"
 
 namespace flysfm::testing {
+
+// An HTTP call to the emulator on loopback: quick, bodies up to 16 MiB.
+constexpr HttpLimits kQuickCall{2, 0, std::uint64_t(1) << 24};
 
 // An emulator on loopback, on ports the system picks, shooting `images` every
 // `interval_seconds`; `ping_ms` (when > 0) sets its ping interval and timeout

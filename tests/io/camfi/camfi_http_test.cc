@@ -24,14 +24,36 @@ TEST_CASE("CamfiHttp sends %2F as is and reports failures") {
   CamfiEmulator emulator(options);
   emulator.Shoot();
   const CamfiHttp http("127.0.0.1", emulator.http_port(), "");
-  const HttpResult raw = http.Get("/raw/" + EncodeDevicePath(emulator.DevicePath(0)), 2);
+  const HttpResult raw =
+      http.Get("/raw/" + EncodeDevicePath(emulator.DevicePath(0)), testing::kQuickCall);
   CHECK(raw.status == 200);
   CHECK(raw.error.empty());
   CHECK(raw.content_length == (long long)raw.body.size());
   CHECK(emulator.RequestLog().back() ==
         "GET /raw/%2Fstore_00010001%2FDCIM%2F100CANON%2FIMG_0001.JPG");
-  CHECK(http.Get("/raw/%2Fno%2Fsuch.JPG", 2).status == 500);
-  CHECK(http.Post("/tether/start", 2).status == 200);
+  CHECK(http.Get("/raw/%2Fno%2Fsuch.JPG", testing::kQuickCall).status == 500);
+  CHECK(http.Post("/tether/start", testing::kQuickCall).status == 200);
+}
+
+TEST_CASE("CamfiHttp abandons a body over its bound") {
+  const std::filesystem::path dir = testing::MakeTempDir("camfi_http_bound");
+  CamfiEmulatorOptions options;
+  options.images = testing::WriteTestJpegs(dir, 1);
+  options.http_port = 0;
+  options.event_port = 0;
+  CamfiEmulator emulator(options);
+  emulator.Shoot();
+  const std::string target = "/raw/" + EncodeDevicePath(emulator.DevicePath(0));
+  const std::uint64_t size = std::filesystem::file_size(options.images[0]);
+  const CamfiHttp http("127.0.0.1", emulator.http_port(), "");
+  const HttpResult over = http.Get(target, {2, 0, size - 1});
+  CHECK(over.too_large);
+  CHECK(over.status == 0);
+  CHECK(over.body.size() < size);
+  CHECK_THAT(over.error, Catch::Contains("body over"));
+  const HttpResult exact = http.Get(target, {2, 0, size});
+  CHECK_FALSE(exact.too_large);
+  CHECK(exact.body.size() == size);
 }
 
 TEST_CASE("CamfiHttp reports a refused connection as an error and no status") {
@@ -45,7 +67,7 @@ TEST_CASE("CamfiHttp reports a refused connection as an error and no status") {
     CamfiEmulator emulator(options);
     port = emulator.http_port();
   }
-  const HttpResult result = CamfiHttp("127.0.0.1", port, "").Get("/info", 1);
+  const HttpResult result = CamfiHttp("127.0.0.1", port, "").Get("/info", testing::kQuickCall);
   CHECK(result.status == 0);
   CHECK_FALSE(result.error.empty());
 }

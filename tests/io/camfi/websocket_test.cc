@@ -4,6 +4,9 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <atomic>
+#include <chrono>
+#include <functional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -25,6 +28,41 @@ int Listen(int* port) {
   REQUIRE(::getsockname(fd, reinterpret_cast<sockaddr*>(&address), &length) == 0);
   *port = ntohs(address.sin_port);
   return fd;
+}
+
+// An unmasked server frame: FIN bit `fin`, `opcode`, `payload`.
+std::string Frame(bool fin, int opcode, const std::string& payload) {
+  std::string frame(1, char((fin ? 0x80 : 0) | opcode));
+  if (payload.size() < 126) {
+    frame.push_back(char(payload.size()));
+  } else {
+    frame.push_back(char(127));
+    for (int shift = 56; shift >= 0; shift -= 8) {
+      frame.push_back(char((std::uint64_t(payload.size()) >> shift) & 0xFF));
+    }
+  }
+  return frame + payload;
+}
+
+// Accepts one client on `listen_fd`, completes the handshake, then writes
+// `frames(0)`, `frames(1)`, ... raw on the connection until `frames` returns
+// "", a write fails (the client dropped it) or `seconds` passed.
+std::thread Flood(int listen_fd, std::function<std::string(int)> frames, double seconds) {
+  return std::thread([listen_fd, frames, seconds] {
+    const int fd = ::accept(listen_fd, nullptr, nullptr);
+    const int raw = ::dup(fd);
+    std::string target;
+    std::optional<WebSocket> socket = WebSocket::Accept(fd, 2000, &target);
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+    for (int i = 0; socket && std::chrono::steady_clock::now() < deadline; ++i) {
+      const std::string frame = frames(i);
+      if (frame.empty() ||
+          ::send(raw, frame.data(), frame.size(), MSG_NOSIGNAL) != ssize_t(frame.size())) {
+        break;
+      }
+    }
+    ::close(raw);
+  });
 }
 
 TEST_CASE("WebSocketAcceptKey matches RFC 6455's example") {
@@ -93,6 +131,87 @@ TEST_CASE("WebSocket::Connect rejects a plain HTTP answer") {
                     Catch::Contains("refused"));
   server.join();
   ::close(listen_fd);
+}
+
+TEST_CASE("WebSocket drops a message over its bound, said in error()") {
+  int port = 0;
+  const int listen_fd = Listen(&port);
+  std::thread server = Flood(
+      listen_fd,
+      [](int i) { return i == 0 ? Frame(true, 0x1, std::string(2u << 20, 'x')) : std::string(); },
+      5);
+  WebSocket client = WebSocket::Connect("127.0.0.1", port, "/", 2000, 1u << 20);
+  std::string message;
+  CHECK(client.Receive(&message, 3000) == WebSocket::Status::kClosed);
+  CHECK_THAT(client.error(), Catch::Contains("over 1048576 bytes"));
+  CHECK(message.empty());
+  server.join();
+  ::close(listen_fd);
+}
+
+TEST_CASE("WebSocket drops an endless fragment stream once it passes the bound") {
+  int port = 0;
+  const int listen_fd = Listen(&port);
+  const std::string chunk(64 << 10, 'f');
+  std::thread server = Flood(
+      listen_fd, [&](int i) { return Frame(false, i == 0 ? 0x1 : 0x0, chunk); }, 5);
+  WebSocket client = WebSocket::Connect("127.0.0.1", port, "/", 2000, 1u << 20);
+  std::string message;
+  const auto start = std::chrono::steady_clock::now();
+  WebSocket::Status status = WebSocket::Status::kTimeout;
+  while (status == WebSocket::Status::kTimeout &&
+         std::chrono::steady_clock::now() - start < std::chrono::seconds(4)) {
+    status = client.Receive(&message, 500);
+  }
+  CHECK(status == WebSocket::Status::kClosed);
+  CHECK_THAT(client.error(), Catch::Contains("over 1048576 bytes"));
+  server.join();
+  ::close(listen_fd);
+}
+
+TEST_CASE("WebSocket::Receive returns on time under a flood of pings") {
+  int port = 0;
+  const int listen_fd = Listen(&port);
+  std::thread server = Flood(
+      listen_fd, [](int) { return Frame(true, 0x9, "p"); }, 3);
+  WebSocket client = WebSocket::Connect("127.0.0.1", port, "/", 2000);
+  std::string message;
+  const auto start = std::chrono::steady_clock::now();
+  CHECK(client.Receive(&message, 200) == WebSocket::Status::kTimeout);
+  CHECK(std::chrono::steady_clock::now() - start < std::chrono::milliseconds(1000));
+  client.Close();
+  server.join();
+  ::close(listen_fd);
+}
+
+TEST_CASE("WebSocketReader enforces RFC 6455's frame rules") {
+  std::string payload;
+  std::string error;
+  const auto first_item = [&](const std::string& bytes) {
+    WebSocketReader reader(1000);
+    reader.Append(bytes.data(), bytes.size());
+    return reader.Next(&payload, &error);
+  };
+  CHECK(first_item(Frame(true, 0x1, "hi")) == WebSocketReader::Item::kMessage);
+  CHECK(payload == "hi");
+  CHECK(first_item(Frame(false, 0x1, "a") + Frame(true, 0x0, "b")) ==
+        WebSocketReader::Item::kMessage);
+  CHECK(payload == "ab");
+  CHECK(first_item(Frame(true, 0x9, std::string(126, 'p'))) == WebSocketReader::Item::kError);
+  CHECK(first_item(Frame(false, 0x9, "p")) == WebSocketReader::Item::kError);
+  CHECK(first_item(Frame(true, 0x0, "orphan")) == WebSocketReader::Item::kError);
+  CHECK(first_item(Frame(false, 0x1, "a") + Frame(true, 0x1, "b")) ==
+        WebSocketReader::Item::kError);
+  CHECK(first_item(Frame(true, 0x3, "")) == WebSocketReader::Item::kError);
+  CHECK(first_item(std::string(1, char(0xC1)) + std::string(1, char(0))) ==
+        WebSocketReader::Item::kError);
+  // An announced length over the bound is refused on the header alone.
+  const std::string header = Frame(true, 0x1, std::string(2000, 'x')).substr(0, 10);
+  CHECK(first_item(header) == WebSocketReader::Item::kError);
+  CHECK_THAT(error, Catch::Contains("over 1000 bytes"));
+  // Fragments count together.
+  CHECK(first_item(Frame(false, 0x1, std::string(600, 'a')) +
+                   Frame(true, 0x0, std::string(600, 'b'))) == WebSocketReader::Item::kError);
 }
 
 }  // namespace
