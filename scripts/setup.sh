@@ -14,6 +14,7 @@ packages=(
   libopenblas-serial-dev libexif-dev
   libwebsocketpp-dev
   colmap
+  clang libclang-rt-14-dev
 )
 
 missing=()
