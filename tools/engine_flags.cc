@@ -78,6 +78,19 @@ void PrintLine(int index, const ImageResult& result, std::optional<double> delay
   std::fflush(stdout);
 }
 
+// What `step` threw, whatever it was (a std::logic_error of a broken
+// invariant included); nullopt when it returned.
+std::optional<std::string> ErrorOf(const std::function<void()>& step) {
+  try {
+    step();
+  } catch (const std::exception& e) {
+    return std::string(e.what());
+  } catch (...) {
+    return std::string("unknown exception");
+  }
+  return std::nullopt;
+}
+
 }  // namespace
 
 int RunEngine(ImageSource* source, Engine* engine, const EngineFlags& flags,
@@ -107,9 +120,14 @@ int RunEngine(ImageSource* source, Engine* engine, const EngineFlags& flags,
       all.push_back(result);
     }
   };
+  // Declared before the prepared source, so that they outlive the prefetch.
+  Quarantine quarantine(std::filesystem::path(flags.out) / "quarantine.tsv",
+                        flags.retry_quarantined);
+  QuarantineFilterSource filtered(source, &quarantine);
   // A failed write (a full disk, a folder made read-only) loses no image:
   // the engine's model is whole, and the next write tries again.
   const auto write_outputs = [&](bool final) {
+    counts.quarantined = filtered.num_skipped();
     try {
       if (!writer.MayReplaceOutputs(engine->reconstruction(), final)) return true;
       writer.WriteModel(engine->reconstruction());
@@ -129,10 +147,6 @@ int RunEngine(ImageSource* source, Engine* engine, const EngineFlags& flags,
       return engine->AddImage(std::move(frame));
     };
   }
-  // Declared before the prepared source, so that it outlives the prefetch.
-  Quarantine quarantine(std::filesystem::path(flags.out) / "quarantine.tsv",
-                        flags.retry_quarantined);
-  QuarantineFilterSource filtered(source, &quarantine);
   bool source_failed = false;
   {
     // The next image is decoded and its features extracted on the second
@@ -140,11 +154,9 @@ int RunEngine(ImageSource* source, Engine* engine, const EngineFlags& flags,
     PreparedFrameSource prepared(&filtered, engine->options());
     while (true) {
       std::optional<PreparedFrame> frame;
-      try {
-        frame = prepared.Next();
-      } catch (const std::exception& e) {
+      if (const std::optional<std::string> error = ErrorOf([&] { frame = prepared.Next(); })) {
         std::fprintf(stderr, "the image source failed: %s; finishing with what it gave\n",
-                     e.what());
+                     error->c_str());
         source_failed = true;
       }
       if (!frame) break;
@@ -153,27 +165,19 @@ int RunEngine(ImageSource* source, Engine* engine, const EngineFlags& flags,
       arrivals[name] = frame->frame.arrival;
       quarantine.BeginEngine(name);
       std::vector<ImageResult> results;
-      // Whatever the engine throws (std::logic_error of a broken invariant
-      // included) ends this image, not the run.
-      std::string error;
-      try {
-        results = add_image(engine, std::move(*frame));
-      } catch (const std::exception& e) {
-        error = e.what();
-      } catch (...) {
-        error = "unknown exception";
-      }
-      if (error.empty()) {
+      const std::optional<std::string> error =
+          ErrorOf([&] { results = add_image(engine, std::move(*frame)); });
+      if (!error) {
         quarantine.Done(name);
       } else {
         ++counts.engine_errors;
-        quarantine.Fail(name, "engine error: " + error);
+        quarantine.Fail(name, "engine error: " + *error);
         std::fprintf(stderr, "engine error on %s: %s; the image is quarantined\n", name.c_str(),
-                     error.c_str());
+                     error->c_str());
         ImageResult failed;
         failed.name = name;
         failed.status = ImageStatus::kRejected;
-        failed.reason = "engine error (quarantined): " + error;
+        failed.reason = "engine error (quarantined): " + *error;
         results.push_back(failed);
       }
       report(results);
@@ -183,13 +187,10 @@ int RunEngine(ImageSource* source, Engine* engine, const EngineFlags& flags,
       }
     }
   }
-  counts.quarantined = filtered.num_skipped();
-  try {
-    report(engine->Finish());
-  } catch (const std::exception& e) {
+  if (const std::optional<std::string> error = ErrorOf([&] { report(engine->Finish()); })) {
     ++counts.engine_errors;
     std::fprintf(stderr, "engine error while finishing: %s; the model is written as it is\n",
-                 e.what());
+                 error->c_str());
   }
   const bool written = write_outputs(/*final=*/true);
   const Reconstruction& model = engine->reconstruction();

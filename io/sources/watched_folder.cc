@@ -155,7 +155,7 @@ Frame WatchedFolderSource::HandOn(const std::string& file, const FileId& id,
                     std::to_string(std::get<3>(id))});
   }
   frame.bytes = std::move(bytes);
-  frame.timestamp = double(handed_on_.size());
+  frame.timestamp = double(num_handed_on_++);
   handed_on_.insert(file);
   handed_on_ids_.insert(id);
   return frame;
@@ -175,6 +175,7 @@ std::optional<Frame> WatchedFolderSource::TakeReplay() {
         if (current == id) {
           file = path;
           bytes = ReadFileBytes(file);
+          break;
         }
       }
     }

@@ -105,6 +105,7 @@ class WatchedFolderSource : public ImageSource {
   std::set<FileId> handed_on_ids_;
   std::set<std::string> listing_errors_;
   std::uint64_t next_order_ = 0;
+  std::uint64_t num_handed_on_ = 0;  // this run's frames, replayed ones included
   std::atomic<int> num_incomplete_{0};
   std::atomic<int> num_missing_{0};
   std::atomic<int> num_listing_errors_{0};
