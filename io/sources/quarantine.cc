@@ -3,6 +3,7 @@
 #include <signal.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <cstring>
 #include <iostream>
 
@@ -19,6 +20,7 @@ thread_local char crash_line[1024];
 thread_local std::size_t crash_line_size = 0;
 
 void RecordCrash(int signal) {
+  const int saved_errno = errno;
   const int fd = crash_fd.load();
   if (fd >= 0 && crash_line_size > 0) (void)!::write(fd, crash_line, crash_line_size);
   // The handler before this one (the default, or a sanitizer's report) takes
@@ -26,6 +28,7 @@ void RecordCrash(int signal) {
   for (std::size_t i = 0; i < std::size(kFatalSignals); ++i) {
     if (kFatalSignals[i] == signal) ::sigaction(signal, &previous_actions[i], nullptr);
   }
+  errno = saved_errno;
 }
 
 void SetCrashLine(const std::string& name) {
