@@ -130,13 +130,105 @@ bool HasPngMarkers(const std::uint8_t* data, std::size_t size) {
          std::memcmp(data + size - 12, kIend, 8) == 0;
 }
 
-DecodedImage DecodeImageBytes(const std::uint8_t* data, std::size_t size) {
+bool DecodeOptions::Check(std::string* error) const {
+  const char* bad = !(max_image_pixels >= 1) ? "max_image_pixels must be >= 1"
+                    : max_file_bytes < 1     ? "max_file_bytes must be >= 1"
+                                             : nullptr;
+  if (bad != nullptr && error != nullptr) *error = bad;
+  return bad == nullptr;
+}
+
+namespace {
+
+std::uint32_t BigEndian(const std::uint8_t* bytes, int count) {
+  std::uint32_t value = 0;
+  for (int i = 0; i < count; ++i) value = value << 8 | bytes[i];
+  return value;
+}
+
+// Walks the marker segments after SOI up to the first frame header; every
+// length is checked against the buffer before it is followed.
+std::optional<ImageSize> JpegSize(const std::uint8_t* data, std::size_t size) {
+  std::size_t at = 2;
+  while (at + 4 <= size) {
+    if (data[at] != 0xFF) return std::nullopt;
+    const std::uint8_t marker = data[at + 1];
+    if (marker == 0xFF) {  // fill byte before a marker
+      ++at;
+      continue;
+    }
+    if (marker == 0x01 || (marker >= 0xD0 && marker <= 0xD7)) {  // no length
+      at += 2;
+      continue;
+    }
+    // Scan data or the end before any frame header: no size to trust.
+    if (marker == 0xDA || marker == 0xD9) return std::nullopt;
+    const std::size_t length = BigEndian(data + at + 2, 2);
+    if (length < 2) return std::nullopt;
+    // SOF0-SOF15 but DHT (C4), JPG (C8) and DAC (CC): precision, height, width.
+    const bool frame_header =
+        marker >= 0xC0 && marker <= 0xCF && marker != 0xC4 && marker != 0xC8 && marker != 0xCC;
+    if (frame_header) {
+      if (length < 7 || at + 9 > size) return std::nullopt;
+      ImageSize image_size;
+      image_size.height = BigEndian(data + at + 5, 2);
+      image_size.width = BigEndian(data + at + 7, 2);
+      return image_size;
+    }
+    at += 2 + length;
+  }
+  return std::nullopt;
+}
+
+std::optional<ImageSize> PngSize(const std::uint8_t* data, std::size_t size) {
+  // Signature, then the IHDR chunk: length, "IHDR", width, height.
+  if (size < 24 || std::memcmp(data + 12, "IHDR", 4) != 0) return std::nullopt;
+  ImageSize image_size;
+  image_size.width = BigEndian(data + 16, 4);
+  image_size.height = BigEndian(data + 20, 4);
+  return image_size;
+}
+
+}  // namespace
+
+std::optional<ImageSize> ReadImageSize(const std::uint8_t* data, std::size_t size) {
+  if (data == nullptr) return std::nullopt;
+  if (IsJpeg(data, size)) return JpegSize(data, size);
+  if (IsPng(data, size)) return PngSize(data, size);
+  return std::nullopt;
+}
+
+DecodedImage DecodeImageBytes(const std::uint8_t* data, std::size_t size,
+                              const DecodeOptions& options) {
   if (data == nullptr || size == 0) return Failure("empty image data (0 bytes)");
-  if (IsJpeg(data, size) && !HasJpegMarkers(data, size)) {
+  if (size > options.max_file_bytes) {
+    return Failure(std::to_string(size) + " bytes, above max_file_bytes (" +
+                   std::to_string(options.max_file_bytes) + ")");
+  }
+  const bool jpeg = IsJpeg(data, size);
+  const bool png = IsPng(data, size);
+  if (jpeg && !HasJpegMarkers(data, size)) {
     return Failure("truncated JPEG: no end-of-image marker");
   }
-  if (IsPng(data, size) && !HasPngMarkers(data, size)) {
+  if (png && !HasPngMarkers(data, size)) {
     return Failure("truncated PNG: no IEND chunk");
+  }
+  if (jpeg || png) {
+    const std::optional<ImageSize> claimed = ReadImageSize(data, size);
+    if (!claimed) {
+      return Failure(jpeg ? "JPEG without a readable frame header (SOF) before its data"
+                          : "PNG without a readable IHDR chunk");
+    }
+    const double pixels = double(claimed->width) * double(claimed->height);
+    if (pixels > options.max_image_pixels) {
+      char message[160];
+      std::snprintf(message, sizeof(message),
+                    "the header claims %u x %u pixels (%.0f MP), above max_image_pixels "
+                    "(%.0f MP); not decoded",
+                    claimed->width, claimed->height, pixels / 1e6,
+                    options.max_image_pixels / 1e6);
+      return Failure(message);
+    }
   }
   cv::Mat decoded;
   try {
@@ -152,7 +244,7 @@ DecodedImage DecodeImageBytes(const std::uint8_t* data, std::size_t size) {
   }
   DecodedImage result;
   result.image = decoded;
-  if (IsJpeg(data, size)) {
+  if (jpeg) {
     if (ExifData* exif = exif_data_new_from_data(data, static_cast<unsigned int>(size))) {
       result.exif_focal_length_px = ExifFocalLengthPx(exif, decoded.cols, decoded.rows);
       result.camera_identity = ExifCameraIdentity(exif);
@@ -162,40 +254,79 @@ DecodedImage DecodeImageBytes(const std::uint8_t* data, std::size_t size) {
   return result;
 }
 
-DecodedImage DecodeImageBytes(const std::vector<std::uint8_t>& bytes) {
-  return DecodeImageBytes(bytes.data(), bytes.size());
+DecodedImage DecodeImageBytes(const std::vector<std::uint8_t>& bytes,
+                              const DecodeOptions& options) {
+  return DecodeImageBytes(bytes.data(), bytes.size(), options);
 }
 
-DecodedImage DecodeImageFile(const std::string& path) {
+std::optional<std::vector<std::uint8_t>> ReadImageFileBytes(const std::string& path,
+                                                            std::uintmax_t max_bytes,
+                                                            std::string* error) {
+  const auto fail = [&](const std::string& why) {
+    if (error != nullptr) *error = why;
+    return std::nullopt;
+  };
   std::ifstream file(path, std::ios::binary);
-  if (!file) return Failure("cannot open image file '" + path + "'");
-  const std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(file)),
-                                        std::istreambuf_iterator<char>());
-  if (file.bad()) return Failure("cannot read image file '" + path + "'");
-  DecodedImage result = DecodeImageBytes(bytes);
+  if (!file) return fail("cannot open image file '" + path + "'");
+  std::vector<std::uint8_t> bytes;
+  char chunk[1 << 16];
+  while (file.read(chunk, sizeof(chunk)) || file.gcount() > 0) {
+    bytes.insert(bytes.end(), chunk, chunk + file.gcount());
+    if (bytes.size() > max_bytes) {
+      return fail("image file '" + path + "' is larger than max_file_bytes (" +
+                  std::to_string(max_bytes) + ")");
+    }
+  }
+  if (file.bad()) return fail("cannot read image file '" + path + "'");
+  return bytes;
+}
+
+DecodedImage DecodeImageFile(const std::string& path, const DecodeOptions& options) {
+  std::string error;
+  const std::optional<std::vector<std::uint8_t>> bytes =
+      ReadImageFileBytes(path, options.max_file_bytes, &error);
+  if (!bytes) return Failure(error);
+  DecodedImage result = DecodeImageBytes(*bytes, options);
   if (!result.ok()) result.error = "'" + path + "': " + result.error;
   return result;
 }
 
-std::vector<std::string> ListImageFiles(const std::string& dir) {
+bool HasImageExtension(const std::string& path) {
+  static const char* kExtensions[] = {".jpg", ".jpeg", ".png", ".tif", ".tiff",
+                                      ".bmp", ".pgm",  ".ppm"};
+  std::string extension = std::filesystem::path(path).extension().string();
+  std::transform(extension.begin(), extension.end(), extension.begin(),
+                 [](unsigned char c) { return char(std::tolower(c)); });
+  return std::find(std::begin(kExtensions), std::end(kExtensions), extension) !=
+         std::end(kExtensions);
+}
+
+std::vector<std::string> ListImageFiles(const std::string& dir,
+                                        std::vector<std::string>* skipped) {
   namespace fs = std::filesystem;
   std::error_code error;
   if (!fs::is_directory(dir, error)) {
     throw std::invalid_argument("image folder '" + dir + "' does not exist");
   }
-  static const char* kExtensions[] = {".jpg", ".jpeg", ".png", ".tif", ".tiff",
-                                      ".bmp", ".pgm",  ".ppm"};
   std::vector<std::string> files;
-  for (const fs::directory_entry& entry : fs::directory_iterator(dir, error)) {
-    if (!entry.is_regular_file()) continue;
-    std::string extension = entry.path().extension().string();
-    std::transform(extension.begin(), extension.end(), extension.begin(),
-                   [](unsigned char c) { return char(std::tolower(c)); });
-    if (std::find(std::begin(kExtensions), std::end(kExtensions), extension) !=
-        std::end(kExtensions)) {
+  const auto skip = [&](const fs::path& path, const std::error_code& why) {
+    if (skipped != nullptr) skipped->push_back(path.string() + ": " + why.message());
+  };
+  fs::directory_iterator entries(dir, error);
+  // The error_code forms throughout: one bad entry (a symbolic link loop, a
+  // file without permission) must not end the listing of the others.
+  for (; !error && entries != fs::directory_iterator(); entries.increment(error)) {
+    const fs::directory_entry& entry = *entries;
+    if (!HasImageExtension(entry.path().string())) continue;
+    std::error_code entry_error;
+    const bool regular = entry.is_regular_file(entry_error);
+    if (entry_error) {
+      skip(entry.path(), entry_error);
+    } else if (regular) {
       files.push_back(entry.path().string());
     }
   }
+  if (error) skip(dir, error);
   std::sort(files.begin(), files.end());
   return files;
 }

@@ -35,6 +35,30 @@ struct DecodedImage {
   bool ok() const { return error.empty(); }
 };
 
+// Bounds on what one image may cost before it is decoded: the bytes come
+// from outside (a camera, a folder anyone can write into).
+struct DecodeOptions {
+  // An image whose header claims more pixels is rejected before decoding: a
+  // 1 KB JPEG may claim 60000 x 60000 pixels, 10 GB once decoded. 200 MP is
+  // above any 12-45 MP body and generous for 100 MP medium format.
+  double max_image_pixels = 200e6;
+  // A larger file is not read: a 200 MP 8-bit RGB TIFF stored uncompressed
+  // takes 600 MB, a camera JPEG of that size under 100 MB.
+  std::uintmax_t max_file_bytes = std::uintmax_t(1) << 30;
+
+  // False when an option is out of range; `error` then names it.
+  bool Check(std::string* error = nullptr) const;
+};
+
+// The pixel size a JPEG's frame header (SOF) or a PNG's IHDR chunk claims,
+// read without decoding. Other formats and headers that are missing or cut
+// short give nullopt.
+struct ImageSize {
+  std::uint32_t width = 0;
+  std::uint32_t height = 0;
+};
+std::optional<ImageSize> ReadImageSize(const std::uint8_t* data, std::size_t size);
+
 // Completeness of encoded bytes, checked before anything is decoded: a file
 // still being written or a download cut short lacks its closing marker.
 // JPEG: start (FF D8) and end (FF D9) markers, zero padding after the end
@@ -44,16 +68,35 @@ bool HasPngMarkers(const std::uint8_t* data, std::size_t size);
 
 // Decodes JPEG, PNG and the other formats OpenCV reads. A JPEG must end with
 // its EOI marker and a PNG with its IEND chunk: a truncated file is a failure
-// even where the codec would return a partly grey image.
-DecodedImage DecodeImageBytes(const std::uint8_t* data, std::size_t size);
-DecodedImage DecodeImageBytes(const std::vector<std::uint8_t>& bytes);
+// even where the codec would return a partly grey image. A JPEG or PNG
+// claiming more than `max_image_pixels` is a failure before any decoding;
+// other formats are bounded by their byte count (`max_file_bytes`) and by
+// OpenCV's own limit (OPENCV_IO_MAX_IMAGE_PIXELS, 2^30 pixels).
+DecodedImage DecodeImageBytes(const std::uint8_t* data, std::size_t size,
+                              const DecodeOptions& options = {});
+DecodedImage DecodeImageBytes(const std::vector<std::uint8_t>& bytes,
+                              const DecodeOptions& options = {});
 
-// Reads the whole file, then as DecodeImageBytes.
-DecodedImage DecodeImageFile(const std::string& path);
+// The whole file, when it can be read and holds at most `max_bytes` (read
+// up to one byte more, so a file still growing is caught too); otherwise
+// nullopt, and `error` says why.
+std::optional<std::vector<std::uint8_t>> ReadImageFileBytes(const std::string& path,
+                                                            std::uintmax_t max_bytes,
+                                                            std::string* error = nullptr);
 
-// The image files (by extension: jpg, jpeg, png, tif, tiff, bmp, pgm, ppm; any
-// case) directly inside `dir`, sorted by name. A missing folder is bad input:
-// std::invalid_argument.
-std::vector<std::string> ListImageFiles(const std::string& dir);
+// Reads the whole file, then as DecodeImageBytes. A file over
+// `max_file_bytes` is a failure without being read.
+DecodedImage DecodeImageFile(const std::string& path, const DecodeOptions& options = {});
+
+// Whether the name ends in an image extension: jpg, jpeg, png, tif, tiff,
+// bmp, pgm, ppm; any case.
+bool HasImageExtension(const std::string& path);
+
+// The image files (by HasImageExtension) directly inside `dir`, sorted by name. A missing folder is bad input:
+// std::invalid_argument. An entry that cannot be examined (a symbolic link
+// loop, no permission) is left out and, with `skipped`, reported there as
+// "path: reason".
+std::vector<std::string> ListImageFiles(const std::string& dir,
+                                        std::vector<std::string>* skipped = nullptr);
 
 }  // namespace flysfm

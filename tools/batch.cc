@@ -3,6 +3,7 @@
 
 #include <iostream>
 
+#include "io/run/output_lock.h"
 #include "tools/commands.h"
 #include "tools/engine_flags.h"
 
@@ -38,18 +39,25 @@ void AddBatchCommand(CLI::App& app) {
   command->callback([flags]() {
     int exit_code = 0;
     try {
-      std::vector<Frame> frames = ListBatchInput(flags->input);
+      const OutputLock lock(flags->engine.out);
+      std::vector<std::string> skipped;
+      std::vector<Frame> frames = ListBatchInput(flags->input, &skipped);
+      for (const std::string& entry : skipped) {
+        std::cerr << "flysfm batch: skipped " << entry << "\n";
+      }
       if (flags->max_images > 0 && int(frames.size()) > flags->max_images) {
         frames.resize(flags->max_images);
       }
       if (flags->shuffle_seed >= 0) ShuffleFrames(&frames, std::uint32_t(flags->shuffle_seed));
       FrameListSource source(std::move(frames), flags->interval);
       Engine engine = flags->engine.MakeEngine();
-      exit_code = RunEngine(&source, &engine, flags->engine);
+      RunEngineOptions run_options;
+      run_options.skipped_entries = int(skipped.size());
+      exit_code = RunEngine(&source, &engine, flags->engine, run_options);
     } catch (const std::invalid_argument& e) {
       std::cerr << "flysfm batch: " << e.what() << "\n";
       exit_code = 2;
-    } catch (const std::runtime_error& e) {
+    } catch (const std::exception& e) {
       std::cerr << "flysfm batch: " << e.what() << "\n";
       exit_code = 1;
     }

@@ -7,6 +7,7 @@
 #include <map>
 
 #include "io/evaluation/evaluation.h"
+#include "io/run/output_lock.h"
 #include "io/synthetic/synthetic_source.h"
 #include "tools/commands.h"
 #include "tools/engine_flags.h"
@@ -35,6 +36,7 @@ void AddDemoCommand(CLI::App& app) {
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   command->callback([flags]() {
+    const OutputLock lock(flags->engine.out);
     std::printf("rendering %d views of the synthetic scene...\n", flags->capture.num_views);
     const SyntheticCapture capture = MakeSyntheticCapture(flags->capture);
     EngineFlags engine_flags = flags->engine;

@@ -9,6 +9,7 @@
 
 #include "core/ablation.h"
 #include "io/sources/prepared_source.h"
+#include "io/sources/quarantine.h"
 #include "retrieval/retrieval_model.h"
 
 namespace flysfm {
@@ -35,6 +36,9 @@ void AddEngineFlags(CLI::App* command, EngineFlags* flags) {
   }
   command->add_flag("--no-global-ba", flags->no_global_ba,
                     "Skip the global bundle adjustment at the end");
+  command->add_flag("--retry-quarantined", flags->retry_quarantined,
+                    "Give the images in OUT/quarantine.tsv (a previous run died or the "
+                    "engine failed on them) another try");
   command->add_option("--refresh-seconds", flags->refresh_seconds,
                       "Rewrite the model in --out at most this often while running")
       ->check(CLI::NonNegativeNumber)
@@ -70,9 +74,23 @@ void PrintLine(int index, const ImageResult& result, std::optional<double> delay
   std::fflush(stdout);
 }
 
+// What `step` threw, whatever it was (a std::logic_error of a broken
+// invariant included); nullopt when it returned.
+std::optional<std::string> ErrorOf(const std::function<void()>& step) {
+  try {
+    step();
+  } catch (const std::exception& e) {
+    return std::string(e.what());
+  } catch (...) {
+    return std::string("unknown exception");
+  }
+  return std::nullopt;
+}
+
 }  // namespace
 
-int RunEngine(ImageSource* source, Engine* engine, const EngineFlags& flags, bool live) {
+int RunEngine(ImageSource* source, Engine* engine, const EngineFlags& flags,
+              const RunEngineOptions& options) {
   RunWriter writer(flags.out);
   const auto start = std::chrono::steady_clock::now();
   auto last_refresh = start;
@@ -80,7 +98,8 @@ int RunEngine(ImageSource* source, Engine* engine, const EngineFlags& flags, boo
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
   };
   std::vector<ImageResult> all;
-  int num_input = 0;
+  RunCounts counts;
+  counts.skipped_entries = options.skipped_entries;
   // A pending image's later result is timed from its own arrival.
   std::map<std::string, std::chrono::steady_clock::time_point> arrivals;
   std::vector<double> delays_ms;
@@ -88,46 +107,108 @@ int RunEngine(ImageSource* source, Engine* engine, const EngineFlags& flags, boo
     for (const ImageResult& result : results) {
       std::optional<double> delay_ms;
       const auto arrival = arrivals.find(result.name);
-      if (live && arrival != arrivals.end()) {
+      if (options.live && arrival != arrivals.end()) {
         delay_ms = 1000 * seconds_since(arrival->second);
         if (result.status == ImageStatus::kRegistered) delays_ms.push_back(*delay_ms);
       }
-      PrintLine(num_input, result, delay_ms);
+      PrintLine(counts.images_in, result, delay_ms);
       writer.Log(result);
       all.push_back(result);
     }
   };
-  // The next image is decoded and its features extracted on the second core
-  // while the engine works on this one.
-  PreparedFrameSource prepared(source, engine->options());
-  while (std::optional<PreparedFrame> frame = prepared.Next()) {
-    ++num_input;
-    arrivals[frame->frame.name] = frame->frame.arrival;
-    report(engine->AddImage(std::move(*frame)));
-    if (seconds_since(last_refresh) >= flags.refresh_seconds) {
+  // Declared before the prepared source, so that they outlive the prefetch.
+  Quarantine quarantine(std::filesystem::path(flags.out) / "quarantine.tsv",
+                        flags.retry_quarantined);
+  QuarantineFilterSource filtered(source, &quarantine);
+  // A failed write (a full disk, a folder made read-only) loses no image:
+  // the engine's model is whole, and the next write tries again.
+  const auto write_outputs = [&](bool final) {
+    counts.quarantined = filtered.num_skipped();
+    try {
+      if (!writer.MayReplaceOutputs(engine->reconstruction(), final)) return true;
       writer.WriteModel(engine->reconstruction());
-      writer.WriteSummary(engine->reconstruction(), all, num_input,
+      writer.WriteSummary(engine->reconstruction(), all, counts,
                           engine->PendingImageNames(), seconds_since(start));
-      last_refresh = std::chrono::steady_clock::now();
+      return true;
+    } catch (const std::exception& e) {
+      ++counts.write_errors;
+      std::fprintf(stderr, "cannot write the outputs in %s: %s\n", flags.out.c_str(), e.what());
+      return false;
+    }
+  };
+  std::function<std::vector<ImageResult>(Engine*, PreparedFrame)> add_image =
+      options.add_image;
+  if (!add_image) {
+    add_image = [](Engine* engine, PreparedFrame frame) {
+      return engine->AddImage(std::move(frame));
+    };
+  }
+  bool source_failed = false;
+  {
+    // The next image is decoded and its features extracted on the second
+    // core while the engine works on this one.
+    PreparedFrameSource prepared(&filtered, engine->options());
+    while (true) {
+      std::optional<PreparedFrame> frame;
+      if (const std::optional<std::string> error = ErrorOf([&] { frame = prepared.Next(); })) {
+        std::fprintf(stderr, "the image source failed: %s; finishing with what it gave\n",
+                     error->c_str());
+        source_failed = true;
+      }
+      if (!frame) break;
+      ++counts.images_in;
+      const std::string name = frame->frame.name;
+      arrivals[name] = frame->frame.arrival;
+      quarantine.BeginEngine(name);
+      std::vector<ImageResult> results;
+      const std::optional<std::string> error =
+          ErrorOf([&] { results = add_image(engine, std::move(*frame)); });
+      if (!error) {
+        quarantine.Done(name);
+      } else {
+        ++counts.engine_errors;
+        quarantine.Fail(name, "engine error: " + *error);
+        std::fprintf(stderr, "engine error on %s: %s; the image is quarantined\n", name.c_str(),
+                     error->c_str());
+        ImageResult failed;
+        failed.name = name;
+        failed.status = ImageStatus::kRejected;
+        failed.reason = "engine error (quarantined): " + *error;
+        results.push_back(failed);
+      }
+      report(results);
+      if (seconds_since(last_refresh) >= flags.refresh_seconds) {
+        write_outputs(/*final=*/false);
+        last_refresh = std::chrono::steady_clock::now();
+      }
     }
   }
-  report(engine->Finish());
-  writer.WriteModel(engine->reconstruction());
-  writer.WriteSummary(engine->reconstruction(), all, num_input,
-                      engine->PendingImageNames(), seconds_since(start));
+  if (const std::optional<std::string> error = ErrorOf([&] { report(engine->Finish()); })) {
+    ++counts.engine_errors;
+    std::fprintf(stderr, "engine error while finishing: %s; the model is written as it is\n",
+                 error->c_str());
+  }
+  const bool written = write_outputs(/*final=*/true);
   const Reconstruction& model = engine->reconstruction();
   std::printf("done: %d images in, %zu registered, %d rejected, %zu pending; %zu points, "
               "mean reprojection error %.3f px; %.1f s. Output in %s\n",
-              num_input, model.NumRegisteredImages(), engine->num_rejected(),
+              counts.images_in, model.NumRegisteredImages(), engine->num_rejected(),
               engine->PendingImageNames().size(), model.NumPoints3D(),
               model.MeanReprojectionError(), seconds_since(start), flags.out.c_str());
-  if (live && !delays_ms.empty()) {
+  if (counts.quarantined + counts.engine_errors + counts.write_errors + counts.skipped_entries >
+      0) {
+    std::printf("problems: %d quarantined images skipped, %d engine errors, %d failed writes, "
+                "%d unreadable input entries\n",
+                counts.quarantined, counts.engine_errors, counts.write_errors,
+                counts.skipped_entries);
+  }
+  if (options.live && !delays_ms.empty()) {
     std::nth_element(delays_ms.begin(), delays_ms.begin() + delays_ms.size() / 2,
                      delays_ms.end());
     std::printf("median delay from arrival to registration: %.0f ms over %zu images\n",
                 delays_ms[delays_ms.size() / 2], delays_ms.size());
   }
-  return 0;
+  return written && !source_failed ? 0 : 1;
 }
 
 }  // namespace flysfm

@@ -3,6 +3,7 @@
 // Options shared by the commands that run the engine (batch, demo, live):
 // the camera, the retrieval model, the ablation switches and the output.
 
+#include <functional>
 #include <map>
 #include <optional>
 #include <string>
@@ -23,6 +24,7 @@ struct EngineFlags {
   bool no_global_ba = false;
   std::string out;
   double refresh_seconds = 2.0;
+  bool retry_quarantined = false;
 
   // Throws std::invalid_argument with a one-line message for a bad camera or
   // an unreadable retrieval model.
@@ -31,12 +33,24 @@ struct EngineFlags {
 
 void AddEngineFlags(CLI::App* command, EngineFlags* flags);
 
+struct RunEngineOptions {
+  // Each line also gives the delay from the image's arrival (Frame::arrival)
+  // to its result, and the run ends with the median delay.
+  bool live = false;
+  // Input folder entries the listing could not examine, for summary.json.
+  int skipped_entries = 0;
+  // Engine::AddImage; a test puts a fault here.
+  std::function<std::vector<ImageResult>(Engine*, PreparedFrame)> add_image;
+};
+
 // Runs every frame of `source` through the engine, printing one line per
 // image result and keeping `out` current; ends with Finish() and the final
-// model. With `live`, each line also gives the delay from the image's arrival
-// (Frame::arrival) to its result, and the run ends with the median delay.
-// Returns the process exit code.
+// model. Images quarantined in OUT/quarantine.tsv are skipped; an exception
+// on one image is reported naming it, counted, and the image quarantined;
+// the run goes on. A failed output write is reported and counted; the next
+// write retries. Returns the process exit code: 1 when the final outputs
+// could not be written or the source failed.
 int RunEngine(ImageSource* source, Engine* engine, const EngineFlags& flags,
-              bool live = false);
+              const RunEngineOptions& options = {});
 
 }  // namespace flysfm

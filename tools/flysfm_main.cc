@@ -20,7 +20,16 @@ int main(int argc, char** argv) {
   flysfm::AddEvalCommand(app);
   flysfm::AddLiveCommand(app);
   flysfm::AddTrainRetrievalCommand(app);
-  CLI11_PARSE(app, argc, argv);
+  // A command's error that no command caught (the output folder in use,
+  // say) is a one-line message, not std::terminate.
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  } catch (const std::exception& e) {
+    std::cerr << "flysfm: " << e.what() << "\n";
+    return 1;
+  }
   if (app.get_subcommands().empty()) {
     std::cout << app.help();
   }

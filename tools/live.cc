@@ -3,7 +3,7 @@
 // SIGTERM ends the run cleanly (what was received is processed, the outputs
 // are written whole); a second signal quits at once. A run restarted on the
 // same --out after a crash first re-feeds the CAMFI shots already in
-// DIR/images (docs/live.md).
+// DIR/images, or the watched files listed in DIR/watched.tsv (docs/live.md).
 
 #include <pthread.h>
 #include <signal.h>
@@ -15,6 +15,7 @@
 #include <thread>
 
 #include "io/camfi/camfi_client.h"
+#include "io/run/output_lock.h"
 #include "io/sources/watched_folder.h"
 #include "tools/commands.h"
 #include "tools/engine_flags.h"
@@ -62,6 +63,7 @@ class LimitedSource : public ImageSource {
     --left_;
     return source_->Next();
   }
+  void Stop() override { source_->Stop(); }
 
  private:
   ImageSource* source_;
@@ -142,6 +144,11 @@ void AddLiveCommand(CLI::App& app) {
                       "Report a watched file still incomplete after this long")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
+  command->add_option("--watch-recursive", flags->watch_options.recursive,
+                      "Also watch the sub-folders, at any depth (a card's 100CANON then "
+                      "101CANON, an FTP upload's dated folders); symbolic links to folders "
+                      "and hidden entries are not followed")
+      ->capture_default_str();
   command->add_option("--max-images", flags->max_images,
                       "Stop after this many images (0: run until Ctrl-C)")
       ->check(CLI::NonNegativeNumber)
@@ -152,11 +159,11 @@ void AddLiveCommand(CLI::App& app) {
       if (flags->camfi.empty() == flags->watch.empty()) {
         throw std::invalid_argument("give exactly one of --camfi HOST[:PORT] and --watch DIR");
       }
+      const OutputLock lock(flags->engine.out);
       // Before anything (the engine's thread pools included) starts a thread.
       StartSignalThread();
       Engine engine = flags->engine.MakeEngine();
       std::unique_ptr<ImageSource> source;
-      std::function<void()> stop;
       CamfiSource* camfi_source = nullptr;
       if (!flags->camfi.empty()) {
         CamfiOptions options = flags->camfi_options;
@@ -173,21 +180,23 @@ void AddLiveCommand(CLI::App& app) {
         auto camfi = std::make_unique<CamfiSource>(
             options, std::filesystem::path(flags->engine.out) / "images");
         camfi_source = camfi.get();
-        stop = [camfi = camfi.get()] { camfi->Stop(); };
         std::printf("live: CAMFI at %s (HTTP %d, events %d); shots stored in %s/images; "
                     "Ctrl-C to stop\n", options.host.c_str(), options.http_port,
                     options.event_port, flags->engine.out.c_str());
         source = std::move(camfi);
       } else {
-        auto watched = std::make_unique<WatchedFolderSource>(flags->watch, flags->watch_options);
-        stop = [watched = watched.get()] { watched->Stop(); };
-        std::printf("live: watching %s; Ctrl-C to stop\n", flags->watch.c_str());
-        source = std::move(watched);
+        WatchedFolderOptions options = flags->watch_options;
+        options.state_file = std::filesystem::path(flags->engine.out) / "watched.tsv";
+        source = std::make_unique<WatchedFolderSource>(flags->watch, options);
+        std::printf("live: watching %s%s; Ctrl-C to stop\n", flags->watch.c_str(),
+                    options.recursive ? " and its sub-folders" : "");
       }
       std::fflush(stdout);
-      SetStop(stop);
+      SetStop([source = source.get()] { source->Stop(); });
       LimitedSource limited(source.get(), flags->max_images > 0 ? flags->max_images : -1);
-      exit_code = RunEngine(&limited, &engine, flags->engine, /*live=*/true);
+      RunEngineOptions run_options;
+      run_options.live = true;
+      exit_code = RunEngine(&limited, &engine, flags->engine, run_options);
       SetStop(nullptr);
       if (camfi_source != nullptr) {
         const CamfiStats stats = camfi_source->stats();
@@ -201,7 +210,7 @@ void AddLiveCommand(CLI::App& app) {
     } catch (const std::invalid_argument& e) {
       std::cerr << "flysfm live: " << e.what() << "\n";
       exit_code = 2;
-    } catch (const std::runtime_error& e) {
+    } catch (const std::exception& e) {
       std::cerr << "flysfm live: " << e.what() << "\n";
       exit_code = 1;
     }

@@ -1,6 +1,7 @@
 #include "io/run/run_writer.h"
 
 #include <algorithm>
+#include <fstream>
 #include <stdexcept>
 
 #include "io/formats/atomic_file.h"
@@ -75,10 +76,31 @@ nlohmann::json StageTimeStatistics(const std::vector<ImageResult>& results) {
   return json;
 }
 
-RunWriter::RunWriter(const std::filesystem::path& out_dir, bool resume) : dir_(out_dir) {
+RunWriter::RunWriter(const std::filesystem::path& out_dir) : dir_(out_dir) {
   std::filesystem::create_directories(dir_);
-  log_.open(dir_ / "log.jsonl", resume ? std::ios::app : std::ios::trunc);
+  log_.open(dir_ / "log.jsonl", std::ios::app);
   if (!log_) throw std::runtime_error("cannot write " + (dir_ / "log.jsonl").string());
+  std::ifstream previous(dir_ / "summary.json");
+  const nlohmann::json summary = nlohmann::json::parse(previous, nullptr, false);
+  const auto registered = summary.find("registered");
+  if (registered != summary.end() && registered->is_number_unsigned()) {
+    previous_registered_ = registered->get<std::size_t>();
+  }
+}
+
+bool RunWriter::MayReplaceOutputs(const Reconstruction& reconstruction, bool final) {
+  if (reconstruction.NumRegisteredImages() < previous_registered_) {
+    if (!final) return false;
+    namespace fs = std::filesystem;
+    const fs::path previous = dir_ / "previous";
+    fs::remove_all(previous);
+    fs::create_directories(previous);
+    for (const char* name : {"sparse", "points.ply", "trajectory.txt", "summary.json"}) {
+      if (fs::exists(dir_ / name)) fs::rename(dir_ / name, previous / name);
+    }
+  }
+  previous_registered_ = 0;
+  return true;
 }
 
 void RunWriter::Log(const ImageResult& result) {
@@ -94,16 +116,21 @@ void RunWriter::WriteModel(const Reconstruction& reconstruction) {
 }
 
 void RunWriter::WriteSummary(const Reconstruction& reconstruction,
-                             const std::vector<ImageResult>& results, int num_input,
+                             const std::vector<ImageResult>& results,
+                             const RunCounts& counts,
                              const std::vector<std::string>& pending,
                              double wall_seconds) {
   int rejected = 0;
   for (const ImageResult& result : results) rejected += result.status == ImageStatus::kRejected;
   const nlohmann::json summary = {
-      {"images_in", num_input},
+      {"images_in", counts.images_in},
       {"registered", reconstruction.NumRegisteredImages()},
       {"rejected", rejected},
       {"pending", pending},
+      {"quarantined", counts.quarantined},
+      {"engine_errors", counts.engine_errors},
+      {"write_errors", counts.write_errors},
+      {"skipped_entries", counts.skipped_entries},
       {"points", reconstruction.NumPoints3D()},
       {"observations", reconstruction.NumObservations()},
       {"mean_reprojection_error_px", reconstruction.MeanReprojectionError()},

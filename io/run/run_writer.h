@@ -6,7 +6,11 @@
 //   points.ply    the coloured points
 //   trajectory.txt  the registered poses, TUM format (camera-to-world)
 //   summary.json  counts, accuracy and stage timings of the run so far
-// Every file but the log is replaced atomically.
+// Every file but the log is replaced atomically. The log is appended to
+// across runs on the same folder. The model files and the summary a previous
+// run left are replaced only once this run's model has at least as many
+// registered images (MayReplaceOutputs): a restart's first images never
+// overwrite a larger model.
 
 #include <filesystem>
 #include <fstream>
@@ -21,16 +25,32 @@ namespace flysfm {
 
 nlohmann::json ToJson(const ImageResult& result);
 
+// What summary.json counts besides the engine's results.
+struct RunCounts {
+  int images_in = 0;        // frames the source handed on
+  int quarantined = 0;      // not given to the engine: quarantined earlier
+  int engine_errors = 0;    // the engine threw on them; now quarantined
+  int write_errors = 0;     // output writes that failed (the next one retries)
+  int skipped_entries = 0;  // input folder entries that could not be examined
+};
+
 class RunWriter {
  public:
-  // Creates `out_dir`. A fresh run starts an empty log; `resume` appends.
-  explicit RunWriter(const std::filesystem::path& out_dir, bool resume = false);
+  // Creates `out_dir` and opens its log for appending. Notes how many
+  // registered images the model a previous run left there has (its
+  // summary.json).
+  explicit RunWriter(const std::filesystem::path& out_dir);
 
   void Log(const ImageResult& result);
+  // Whether the model files and summary may be written now: false while
+  // `reconstruction` has fewer registered images than a previous run's
+  // model in the folder. `final` (the run's last write) makes it true, the
+  // previous model files and summary then moved to OUT/previous/ first.
+  bool MayReplaceOutputs(const Reconstruction& reconstruction, bool final);
   void WriteModel(const Reconstruction& reconstruction);
-  // `results`: every result logged so far; `num_input`: images received.
+  // `results`: every result logged so far.
   void WriteSummary(const Reconstruction& reconstruction,
-                    const std::vector<ImageResult>& results, int num_input,
+                    const std::vector<ImageResult>& results, const RunCounts& counts,
                     const std::vector<std::string>& pending, double wall_seconds);
 
   const std::filesystem::path& dir() const { return dir_; }
@@ -38,6 +58,9 @@ class RunWriter {
  private:
   std::filesystem::path dir_;
   std::ofstream log_;
+  // The previous run's registered images, until this run's outputs replace
+  // its outputs (then 0).
+  std::size_t previous_registered_ = 0;
 };
 
 // Median and 95th percentile of each stage's time over the results of

@@ -2,8 +2,6 @@
 
 #include <algorithm>
 #include <cctype>
-#include <fstream>
-#include <iterator>
 #include <string>
 
 #include "matching/image_decode.h"
@@ -29,10 +27,8 @@ bool LooksCompleteImage(const std::filesystem::path& name,
 }
 
 std::vector<std::uint8_t> ReadFileBytes(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return {};
-  return std::vector<std::uint8_t>(std::istreambuf_iterator<char>(in),
-                                   std::istreambuf_iterator<char>());
+  return ReadImageFileBytes(path.string(), DecodeOptions().max_file_bytes)
+      .value_or(std::vector<std::uint8_t>());
 }
 
 }  // namespace flysfm

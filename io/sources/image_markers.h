@@ -17,7 +17,8 @@ bool HasPngMarkers(const std::vector<std::uint8_t>& bytes);
 // no end marker to check and pass when not empty.
 bool LooksCompleteImage(const std::filesystem::path& name,
                         const std::vector<std::uint8_t>& bytes);
-// The whole file's bytes; empty when it cannot be read.
+// The whole file's bytes; empty when it cannot be read or holds more than
+// DecodeOptions::max_file_bytes.
 std::vector<std::uint8_t> ReadFileBytes(const std::filesystem::path& path);
 
 }  // namespace flysfm

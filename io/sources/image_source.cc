@@ -5,7 +5,6 @@
 #include <random>
 #include <sstream>
 #include <stdexcept>
-#include <thread>
 
 #include "io/formats/data_lines.h"
 #include "matching/image_decode.h"
@@ -13,8 +12,8 @@
 namespace flysfm {
 namespace fs = std::filesystem;
 
-std::vector<Frame> ListImageFolder(const fs::path& dir) {
-  const std::vector<std::string> paths = ListImageFiles(dir.string());
+std::vector<Frame> ListImageFolder(const fs::path& dir, std::vector<std::string>* skipped) {
+  const std::vector<std::string> paths = ListImageFiles(dir.string(), skipped);
   if (paths.empty()) {
     throw std::invalid_argument("no images (jpg, jpeg, png, tif, bmp, pgm, ppm) in " +
                                 dir.string());
@@ -49,8 +48,8 @@ std::vector<Frame> ListTumSequence(const fs::path& dir) {
   return frames;
 }
 
-std::vector<Frame> ListBatchInput(const fs::path& path) {
-  return fs::exists(path / "rgb.txt") ? ListTumSequence(path) : ListImageFolder(path);
+std::vector<Frame> ListBatchInput(const fs::path& path, std::vector<std::string>* skipped) {
+  return fs::exists(path / "rgb.txt") ? ListTumSequence(path) : ListImageFolder(path, skipped);
 }
 
 void ShuffleFrames(std::vector<Frame>* frames, std::uint32_t seed) {
@@ -60,22 +59,35 @@ void ShuffleFrames(std::vector<Frame>* frames, std::uint32_t seed) {
 
 FrameListSource::FrameListSource(std::vector<Frame> frames,
                                  double interval_seconds)
-    : frames_(std::move(frames)),
-      interval_seconds_(interval_seconds),
-      start_(std::chrono::steady_clock::now()) {
+    : frames_(std::move(frames)), interval_seconds_(interval_seconds) {
   if (!(interval_seconds >= 0)) {
     throw std::invalid_argument("the interval must be >= 0 seconds");
   }
 }
 
+void FrameListSource::Stop() {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stopped_ = true;
+  }
+  stopped_changed_.notify_all();
+}
+
 std::optional<Frame> FrameListSource::Next() {
+  std::unique_lock<std::mutex> lock(mutex_);
   if (next_ >= frames_.size()) return std::nullopt;
   // Frame i arrives i intervals after the first, whatever the engine's pace.
-  std::this_thread::sleep_until(
-      start_ + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                   std::chrono::duration<double>(interval_seconds_ * next_)));
-  Frame frame = std::move(frames_[next_++]);
+  if (next_ > 0) {
+    stopped_changed_.wait_until(
+        lock,
+        start_ + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                     std::chrono::duration<double>(interval_seconds_ * next_)),
+        [this] { return stopped_; });
+  }
+  if (stopped_) return std::nullopt;
+  Frame frame = std::move(frames_[next_]);
   frame.arrival = std::chrono::steady_clock::now();
+  if (next_++ == 0) start_ = frame.arrival;
   return frame;
 }
 

@@ -4,9 +4,13 @@
 // folder, a CAMFI transmitter, a rendered scene) yields the same Frame (core/frame.h),
 // so the engine loop never knows where an image came from.
 
+#include <chrono>
+#include <condition_variable>
 #include <cstdint>
 #include <filesystem>
+#include <mutex>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "core/frame.h"
@@ -19,18 +23,26 @@ class ImageSource {
   // The next frame, blocking until it arrives; nullopt once the source is
   // exhausted or stopped.
   virtual std::optional<Frame> Next() = 0;
+  // Makes a blocked or later Next() return soon: what was already received
+  // may still be handed out, then nullopt. Thread-safe. A source whose
+  // Next() never waits needs nothing here.
+  virtual void Stop() {}
 };
 
 // Image files (matching's ListImageFiles: jpg, jpeg, png, tif, tiff, bmp,
-// pgm, ppm; any case) directly in `dir`, sorted by name. Throws std::invalid_argument for a missing folder or one without
-// images.
-std::vector<Frame> ListImageFolder(const std::filesystem::path& dir);
+// pgm, ppm; any case) directly in `dir`, sorted by name. Throws
+// std::invalid_argument for a missing folder or one without images. Entries
+// that cannot be examined (a symbolic link loop) are left out and, with
+// `skipped`, reported there as "path: reason".
+std::vector<Frame> ListImageFolder(const std::filesystem::path& dir,
+                                   std::vector<std::string>* skipped = nullptr);
 // The frames of a TUM RGB-D sequence folder in rgb.txt order, named by their
 // path in rgb.txt ("rgb/<timestamp>.png"), timestamped from it. Throws
 // std::invalid_argument naming the line of a malformed rgb.txt.
 std::vector<Frame> ListTumSequence(const std::filesystem::path& dir);
 // A TUM sequence when `path` holds rgb.txt, else an image folder.
-std::vector<Frame> ListBatchInput(const std::filesystem::path& path);
+std::vector<Frame> ListBatchInput(const std::filesystem::path& path,
+                                  std::vector<std::string>* skipped = nullptr);
 // A reproducible random order: any capture order must work.
 void ShuffleFrames(std::vector<Frame>* frames, std::uint32_t seed);
 
@@ -41,12 +53,17 @@ class FrameListSource : public ImageSource {
   explicit FrameListSource(std::vector<Frame> frames,
                            double interval_seconds = 0.0);
   std::optional<Frame> Next() override;
+  // Ends the list, waking a Next() waiting for the next interval.
+  void Stop() override;
 
  private:
   std::vector<Frame> frames_;
   double interval_seconds_;
   std::size_t next_ = 0;
-  std::chrono::steady_clock::time_point start_;
+  std::chrono::steady_clock::time_point start_;  // the first frame's arrival
+  std::mutex mutex_;
+  std::condition_variable stopped_changed_;
+  bool stopped_ = false;
 };
 
 }  // namespace flysfm

@@ -14,13 +14,28 @@ PreparedFrameSource::PreparedFrameSource(ImageSource* source, Engine::Options op
 }
 
 PreparedFrameSource::~PreparedFrameSource() {
+  source_->Stop();
   if (next_.valid()) next_.wait();
 }
 
 std::optional<PreparedFrame> PreparedFrameSource::FetchAndPrepare() {
   std::optional<Frame> frame = source_->Next();
   if (!frame) return std::nullopt;
-  return Engine::Prepare(*frame, options_);
+  // Decoding and SIFT see the bytes from outside first: a failure there
+  // (an allocation, an OpenCV assertion) is this image's, not the run's.
+  std::string error;
+  try {
+    return Engine::Prepare(*frame, options_);
+  } catch (const std::exception& e) {
+    error = e.what();
+  } catch (...) {
+    error = "unknown exception";
+  }
+  PreparedFrame failed;
+  failed.frame = std::move(*frame);
+  failed.frame.bytes = {};
+  failed.error = "preparing the image failed: " + error;
+  return failed;
 }
 
 std::optional<PreparedFrame> PreparedFrameSource::Next() {

@@ -18,11 +18,15 @@ class PreparedFrameSource {
   // `source` must outlive this object. `options`: the engine's (its SIFT
   // settings). Sets OpenCV to one thread for the process (cv::setNumThreads).
   PreparedFrameSource(ImageSource* source, Engine::Options options);
-  // Waits for the frame being prepared, if any.
+  // Stops the source (ImageSource::Stop), so that a source waiting for the
+  // next shot lets the frame being fetched end, then waits for it: an
+  // error that ends the engine loop early never hangs on the prefetch.
   ~PreparedFrameSource();
 
   // The next prepared frame, blocking until the source yields one; nullopt
   // once it is exhausted. Starts preparing the one after before returning.
+  // An exception while preparing a frame makes it a frame with `error` set
+  // (the engine's counted rejection); one from the source is rethrown.
   std::optional<PreparedFrame> Next();
 
  private:

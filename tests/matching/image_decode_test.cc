@@ -94,6 +94,127 @@ TEST_CASE("image files are decoded and listed and missing ones give errors") {
   CHECK_THROWS_AS(ListImageFiles((dir / "nope").string()), std::invalid_argument);
 }
 
+// The offset of the first SOF0 segment's height field (FF C0, length,
+// precision, then height and width, big-endian) in an encoder's JPEG.
+std::size_t Sof0SizeOffset(const std::vector<std::uint8_t>& jpeg) {
+  for (std::size_t i = 2; i + 9 <= jpeg.size(); ++i) {
+    if (jpeg[i] == 0xFF && jpeg[i + 1] == 0xC0) return i + 5;
+  }
+  FAIL("no SOF0 segment");
+  return 0;
+}
+
+void PutBigEndian16(std::uint8_t* at, int value) {
+  at[0] = std::uint8_t(value >> 8);
+  at[1] = std::uint8_t(value);
+}
+
+TEST_CASE("a JPEG or PNG claiming too many pixels is rejected before decoding") {
+  const cv::Mat image = MakeTexture(64, 48, 5, true);
+  std::vector<std::uint8_t> jpeg = Encode(image, ".jpg");
+  const std::size_t size_at = Sof0SizeOffset(jpeg);
+  std::optional<ImageSize> size = ReadImageSize(jpeg.data(), jpeg.size());
+  REQUIRE(size);
+  CHECK(size->width == 64);
+  CHECK(size->height == 48);
+
+  // 20000 x 15000 (300 MP) stays below OpenCV's own limit (2^30 pixels), so
+  // only the header check keeps the decoder from allocating 900 MB.
+  PutBigEndian16(&jpeg[size_at], 15000);
+  PutBigEndian16(&jpeg[size_at + 2], 20000);
+  size = ReadImageSize(jpeg.data(), jpeg.size());
+  REQUIRE(size);
+  CHECK(size->width == 20000);
+  CHECK(size->height == 15000);
+  const DecodedImage bomb = DecodeImageBytes(jpeg);
+  CHECK_FALSE(bomb.ok());
+  CHECK_THAT(bomb.error, Catch::Contains("20000 x 15000") && Catch::Contains("max_image_pixels"));
+  PutBigEndian16(&jpeg[size_at], 60000);
+  PutBigEndian16(&jpeg[size_at + 2], 60000);
+  CHECK_THAT(DecodeImageBytes(jpeg).error, Catch::Contains("max_image_pixels"));
+
+  std::vector<std::uint8_t> png = Encode(image, ".png");
+  png[16] = png[17] = png[20] = png[21] = 0x7F;  // width and height about 2^30
+  const DecodedImage png_bomb = DecodeImageBytes(png);
+  CHECK_THAT(png_bomb.error, Catch::Contains("max_image_pixels"));
+
+  // The bound is an option.
+  DecodeOptions options;
+  CHECK(options.Check());
+  options.max_image_pixels = 64 * 48 - 1;
+  CHECK_FALSE(DecodeImageBytes(Encode(image, ".jpg"), options).ok());
+  CHECK_FALSE(DecodeImageBytes(Encode(image, ".png"), options).ok());
+  options.max_image_pixels = 64 * 48;
+  CHECK(DecodeImageBytes(Encode(image, ".jpg"), options).ok());
+  options.max_image_pixels = 0;
+  std::string error;
+  CHECK_FALSE(options.Check(&error));
+  CHECK_THAT(error, Catch::Contains("max_image_pixels"));
+}
+
+TEST_CASE("the header reader stays inside cut and hostile headers") {
+  const std::vector<std::uint8_t> jpeg = Encode(MakeTexture(64, 48, 6, true), ".jpg");
+  const std::size_t size_at = Sof0SizeOffset(jpeg);
+  // Every cut before the frame header's width ends says nothing (ASan checks
+  // that no byte past the cut is read).
+  for (std::size_t cut = 0; cut < size_at + 4; ++cut) {
+    const std::vector<std::uint8_t> head(jpeg.begin(), jpeg.begin() + std::ptrdiff_t(cut));
+    CHECK_FALSE(ReadImageSize(head.data(), head.size()));
+  }
+  // Segment lengths pointing past the end, or too short to move on.
+  for (const int length : {0, 1, 0xFFFF}) {
+    std::vector<std::uint8_t> hostile = {0xFF, 0xD8, 0xFF, 0xE0};
+    hostile.push_back(std::uint8_t(length >> 8));
+    hostile.push_back(std::uint8_t(length));
+    hostile.insert(hostile.end(), {0xFF, 0xD9});
+    CHECK_FALSE(ReadImageSize(hostile.data(), hostile.size()));
+    CHECK_FALSE(DecodeImageBytes(hostile).ok());
+  }
+  // Random bytes behind a JPEG start: no crash, a counted failure.
+  std::mt19937 rng(2);
+  for (int trial = 0; trial < 200; ++trial) {
+    std::vector<std::uint8_t> noise(64 + rng() % 512);
+    for (auto& b : noise) b = std::uint8_t(rng() % 4 == 0 ? 0xFF : rng());
+    noise[0] = 0xFF;
+    noise[1] = 0xD8;
+    noise[2] = 0xFF;
+    noise[noise.size() - 2] = 0xFF;
+    noise.back() = 0xD9;
+    ReadImageSize(noise.data(), noise.size());
+    CHECK_FALSE(DecodeImageBytes(noise).ok());
+  }
+}
+
+TEST_CASE("a file over max_file_bytes is not read") {
+  const std::filesystem::path dir = testing::MakeTempDir("image_decode_large");
+  const std::filesystem::path path = dir / "a.png";
+  const std::vector<std::uint8_t> png = Encode(MakeTexture(64, 48, 7, true), ".png");
+  std::ofstream(path, std::ios::binary)
+      .write(reinterpret_cast<const char*>(png.data()), std::streamsize(png.size()));
+  DecodeOptions options;
+  CHECK(DecodeImageFile(path.string(), options).ok());
+  options.max_file_bytes = png.size() - 1;
+  const DecodedImage large = DecodeImageFile(path.string(), options);
+  CHECK_FALSE(large.ok());
+  CHECK_THAT(large.error, Catch::Contains("max_file_bytes"));
+  CHECK_FALSE(ReadImageFileBytes(path.string(), png.size() - 1));
+  CHECK(ReadImageFileBytes(path.string(), png.size()) == png);
+}
+
+TEST_CASE("an entry that cannot be examined is skipped and reported, not fatal") {
+  namespace fs = std::filesystem;
+  const fs::path dir = testing::MakeTempDir("image_decode_loop");
+  REQUIRE(cv::imwrite((dir / "a.png").string(), MakeTexture(64, 48, 8, true)));
+  fs::create_symlink("loop.jpg", dir / "loop.jpg");  // ELOOP when followed
+  std::vector<std::string> skipped;
+  const std::vector<std::string> files = ListImageFiles(dir.string(), &skipped);
+  REQUIRE(files.size() == 1);
+  CHECK(fs::path(files[0]).filename() == "a.png");
+  REQUIRE(skipped.size() == 1);
+  CHECK_THAT(skipped[0], Catch::Contains("loop.jpg"));
+  CHECK(ListImageFiles(dir.string()).size() == 1);
+}
+
 std::vector<std::uint8_t> JpegWithExif(const cv::Mat& image,
                                        std::vector<std::pair<ExifTag, double>> numbers) {
   return testing::JpegWithExif(image, {std::move(numbers), {}});

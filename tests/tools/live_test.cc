@@ -11,6 +11,7 @@
 #include "io/camfi/camfi_client.h"
 #include "io/camfi/camfi_emulator.h"
 #include "io/sources/image_markers.h"
+#include "tests/io/sources/source_fixture.h"
 #include "tests/io/camfi/camfi_fixture.h"
 #include "tests/testing/temp_dir.h"
 #include "tests/tools/live_process.h"
@@ -98,6 +99,51 @@ TEST_CASE("live: after SIGKILL a restart loses nothing and fetches nothing twice
   REQUIRE(std::regex_search(output, match, std::regex("camfi: (\\d+) stored, (\\d+) replayed")));
   CHECK(std::stoul(match[2]) >= stored_before.size());
   CHECK(std::stoul(match[1]) + std::stoul(match[2]) == std::size_t(kShots));
+}
+
+// The image names of the result lines ("[   1] name  status ...") in order.
+std::vector<std::string> ResultNames(const std::filesystem::path& output) {
+  std::vector<std::string> names;
+  const std::regex line("^\\[ *\\d+\\] (\\S+) ");
+  std::ifstream in(output);
+  std::smatch match;
+  for (std::string text; std::getline(in, text);) {
+    if (std::regex_search(text, match, line)) names.push_back(match[1]);
+  }
+  return names;
+}
+
+TEST_CASE("live --watch: after SIGKILL a restart re-feeds the files in arrival order") {
+  const std::filesystem::path dir = testing::MakeTempDir("live_watch");
+  const std::vector<std::filesystem::path> images = testing::WriteTestJpegs(dir / "shots", 3);
+  const std::filesystem::path inbox = dir / "inbox";
+  const std::filesystem::path out = dir / "out";
+  std::filesystem::create_directories(inbox);
+  const std::vector<std::string> args = {"live", "--watch", inbox.string(),
+                                         "--watch-stable-seconds", "0.2", "--out", out.string()};
+  const pid_t first = testing::SpawnFlysfm(args, dir / "first.txt");
+  // Arrival order b, a: not the names' order.
+  for (const auto& [image, name] : {std::pair{images[0], "b.jpg"}, std::pair{images[1], "a.jpg"}}) {
+    const std::size_t before = testing::LinesStartingWith(out / "log.jsonl", "{").size();
+    std::filesystem::copy_file(image, inbox / name);
+    REQUIRE(testing::WaitUntil(
+        [&] { return testing::LinesStartingWith(out / "log.jsonl", "{").size() > before; }, 20));
+  }
+  ::kill(first, SIGKILL);
+  REQUIRE(testing::WaitForExit(first, 5) == 128 + SIGKILL);
+  // Shot while the program was down.
+  std::filesystem::copy_file(images[2], inbox / "c.jpg");
+
+  std::vector<std::string> restart = args;
+  restart.insert(restart.end(), {"--max-images", "3"});
+  const pid_t second = testing::SpawnFlysfm(restart, dir / "second.txt");
+  REQUIRE(testing::WaitForExit(second, 30) == 0);
+  const std::vector<std::string> names = ResultNames(dir / "second.txt");
+  REQUIRE(names.size() >= 3);
+  CHECK(std::vector<std::string>(names.begin(), names.begin() + 3) ==
+        std::vector<std::string>{"b.jpg", "a.jpg", "c.jpg"});
+  // The log goes on: the first run's records, then the second's.
+  CHECK(testing::LinesStartingWith(out / "log.jsonl", "{").size() >= 5);
 }
 
 }  // namespace

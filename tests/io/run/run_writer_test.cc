@@ -42,9 +42,11 @@ const WrittenRun& Written() {
     WrittenRun written{engine.reconstruction(), testing::MakeTempDir("run_writer_test")};
     RunWriter writer(written.dir);
     for (const ImageResult& result : results) writer.Log(result);
+    REQUIRE(writer.MayReplaceOutputs(written.model, /*final=*/false));
     writer.WriteModel(written.model);
-    writer.WriteSummary(written.model, results, int(capture.frames.size()),
-                        engine.PendingImageNames(), 1.0);
+    RunCounts counts;
+    counts.images_in = int(capture.frames.size());
+    writer.WriteSummary(written.model, results, counts, engine.PendingImageNames(), 1.0);
     return written;
   }();
   return run;
@@ -62,6 +64,13 @@ void CheckSameModel(const Reconstruction& read, const Reconstruction& model) {
     CHECK(read_pose.rotation.angularDistance(pose.rotation) < 1e-12);
     CHECK((read_pose.translation - pose.translation).norm() < 1e-12);
   }
+}
+
+std::string ReadText(const fs::path& path) {
+  std::ifstream in(path);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
 }
 
 double MeanPointError(const Reconstruction& model) {
@@ -102,6 +111,40 @@ TEST_CASE("The run's sparse/ model reads back, text and binary, as the engine's 
   const nlohmann::json json = nlohmann::json::parse(summary);
   CHECK(json["images_in"].get<int>() == 8);
   CHECK(json["registered"].get<std::size_t>() == run.model.NumRegisteredImages());
+}
+
+TEST_CASE("A restart keeps the previous model until it has as many images, and the log") {
+  const WrittenRun& run = Written();
+  const fs::path dir = testing::MakeTempDir("run_writer_restart");
+  fs::copy(run.dir, dir, fs::copy_options::recursive);
+  const std::string log_before = ReadText(dir / "log.jsonl");
+  const std::string summary_before = ReadText(dir / "summary.json");
+  const std::string images_before = ReadText(dir / "sparse" / "images.txt");
+
+  // The restart's model so far: the first images of the same session.
+  Reconstruction smaller = run.model;
+  const std::vector<image_t> registered = smaller.RegisteredImageIds();
+  for (std::size_t i = 2; i < registered.size(); ++i) smaller.DeRegisterImage(registered[i]);
+  REQUIRE(smaller.NumRegisteredImages() == 2);
+  RunWriter restart(dir);
+  ImageResult result;
+  result.name = "restart";
+  restart.Log(result);
+  CHECK_FALSE(restart.MayReplaceOutputs(smaller, /*final=*/false));
+  CHECK(ReadText(dir / "sparse" / "images.txt") == images_before);
+  CHECK(ReadText(dir / "summary.json") == summary_before);
+  // The log goes on from where the previous run left it.
+  CHECK(ReadText(dir / "log.jsonl") == log_before + ToJson(result).dump() + "\n");
+
+  // As large again: replaced from then on.
+  CHECK(restart.MayReplaceOutputs(run.model, /*final=*/false));
+  CHECK(restart.MayReplaceOutputs(smaller, /*final=*/false));
+
+  // A run that ends smaller writes its own, the previous ones moved aside.
+  RunWriter shorter(dir);
+  CHECK(shorter.MayReplaceOutputs(smaller, /*final=*/true));
+  CHECK(ReadText(dir / "previous" / "summary.json") == summary_before);
+  CHECK(ReadText(dir / "previous" / "sparse" / "images.txt") == images_before);
 }
 
 TEST_CASE("colmap model_analyzer reads the run's sparse/ model, binary and text") {

@@ -36,6 +36,17 @@ TEST_CASE("Missing or empty folders are clear errors") {
                     Contains("no images"));
 }
 
+TEST_CASE("A batch folder skips a symbolic link loop and reports it") {
+  const fs::path dir = MakeFolder("loop", {"a.png", "b.png"});
+  fs::create_symlink("loop.png", dir / "loop.png");
+  std::vector<std::string> skipped;
+  const std::vector<Frame> frames = ListBatchInput(dir, &skipped);
+  REQUIRE(frames.size() == 2);
+  CHECK(frames[1].name == "b.png");
+  REQUIRE(skipped.size() == 1);
+  CHECK_THAT(skipped[0], Catch::Contains("loop.png"));
+}
+
 TEST_CASE("A TUM sequence lists rgb.txt in order with its timestamps") {
   const fs::path dir = MakeFolder("tum", {});
   std::ofstream(dir / "rgb.txt") << "# color images\n# timestamp filename\n"

@@ -1,5 +1,10 @@
 #include "io/sources/prepared_source.h"
 
+#include <chrono>
+#include <condition_variable>
+#include <mutex>
+#include <thread>
+
 #include <catch2/catch.hpp>
 
 #include "io/synthetic/synthetic_source.h"
@@ -30,6 +35,55 @@ TEST_CASE("Frames come prepared, in the source's order, as Engine::Prepare makes
   }
   CHECK_FALSE(prepared.Next());
   CHECK_FALSE(prepared.Next());
+}
+
+// A live source between shots: Next() waits until Stop() (or, so that a
+// broken stop fails the test instead of hanging it, a few seconds).
+class WaitingSource : public ImageSource {
+ public:
+  std::optional<Frame> Next() override {
+    std::unique_lock<std::mutex> lock(mutex_);
+    stopped_changed_.wait_for(lock, std::chrono::seconds(5), [this] { return stopped_; });
+    return std::nullopt;
+  }
+  void Stop() override {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      stopped_ = true;
+    }
+    stopped_changed_.notify_all();
+  }
+
+ private:
+  std::mutex mutex_;
+  std::condition_variable stopped_changed_;
+  bool stopped_ = false;
+};
+
+TEST_CASE("Leaving the engine loop early does not wait for the next shot") {
+  WaitingSource source;
+  const auto start = std::chrono::steady_clock::now();
+  {
+    // What an exception leaving RunEngine's loop does: the prefetch is
+    // waiting in the source's Next() when the prepared source goes.
+    PreparedFrameSource prepared(&source, Engine::Options());
+  }
+  CHECK(std::chrono::steady_clock::now() - start < std::chrono::seconds(2));
+}
+
+TEST_CASE("Stop ends a paced list without waiting for the next interval") {
+  SyntheticCaptureOptions capture_options;
+  capture_options.num_views = 2;
+  FrameListSource source(MakeSyntheticCapture(capture_options).frames, 30.0);
+  REQUIRE(source.Next());
+  std::thread stopper([&] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    source.Stop();
+  });
+  const auto start = std::chrono::steady_clock::now();
+  CHECK_FALSE(source.Next());
+  CHECK(std::chrono::steady_clock::now() - start < std::chrono::seconds(5));
+  stopper.join();
 }
 
 }  // namespace

@@ -1,0 +1,92 @@
+#pragma once
+
+// Images kept from the engine: a photo that crashes the engine would crash
+// every restart too, with no way past it. OUT/quarantine.tsv (a JournalFile)
+// records, each in the kernel before the step it announces begins:
+//   decode NAME       the prefetch thread is about to decode NAME
+//   engine NAME       the engine is about to take NAME
+//   done NAME         NAME is through, whatever its result (or never started)
+//   crashed NAME      a fatal signal (SIGSEGV, SIGBUS, SIGILL, SIGFPE,
+//                     SIGABRT) hit the thread working on NAME
+//   failed NAME WHY   the engine threw an exception on NAME
+//   killed NAME       the process died without a signal report during NAME
+//                     (SIGKILL, the OOM killer, a power cut)
+//   poison NAME WHY   NAME was open at kDeathsToQuarantine deaths in a row
+//   retry NAME        NAME gets another try (--retry-quarantined)
+// A crash quarantines its image at once: the fatal-signal handler knows
+// which image its thread was on. A death without a report does not tell a
+// hostile photo from a user's `kill -9` or the OOM killer, so its open image
+// (the one in the engine; the one being decoded if none was) is retried
+// once and quarantined only when the next run dies on it too: a kill never
+// loses a photo, and a photo that hangs or exhausts memory costs one restart
+// more.
+
+#include <atomic>
+#include <filesystem>
+#include <map>
+#include <mutex>
+#include <optional>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "io/sources/image_source.h"
+#include "io/sources/journal_file.h"
+
+namespace flysfm {
+
+class Quarantine {
+ public:
+  // Unreported deaths during an image before it is quarantined.
+  static constexpr int kDeathsToQuarantine = 2;
+
+  // Reads `file` (none: nothing quarantined), records what the previous run
+  // died on, reports each newly quarantined image on stderr, and installs
+  // the fatal-signal handler that records `crashed` (one Quarantine per
+  // process at a time). With `retry`, every quarantined image gets another
+  // try. Throws std::runtime_error when the file cannot be written.
+  Quarantine(const std::filesystem::path& file, bool retry);
+  // Restores the previous signal handlers and records `done` for the images
+  // still open: the run ended without dying on them.
+  ~Quarantine();
+  Quarantine(const Quarantine&) = delete;
+  Quarantine& operator=(const Quarantine&) = delete;
+
+  // Why `name` is quarantined; nullopt when it is not. Thread-safe, as are
+  // the records below. BeginDecode and BeginEngine also make `name` the
+  // calling thread's image for the signal handler.
+  std::optional<std::string> Reason(const std::string& name) const;
+  void BeginDecode(const std::string& name);
+  void BeginEngine(const std::string& name);
+  void Done(const std::string& name);
+  void Fail(const std::string& name, const std::string& why);
+
+ private:
+  void Append(const std::vector<std::string>& fields);
+  void Begin(const std::string& step, const std::string& name);
+
+  JournalFile journal_;
+  mutable std::mutex mutex_;
+  std::map<std::string, std::string> reasons_;
+  std::set<std::string> open_;
+};
+
+// Hands on the frames of `source` but the quarantined ones (reported on
+// stderr and counted), recording `decode` for each frame handed on: the
+// source the prefetch thread reads.
+class QuarantineFilterSource : public ImageSource {
+ public:
+  // Both must outlive this object.
+  QuarantineFilterSource(ImageSource* source, Quarantine* quarantine);
+  std::optional<Frame> Next() override;
+  void Stop() override { source_->Stop(); }
+
+  int num_skipped() const { return num_skipped_; }
+
+ private:
+  ImageSource* source_;
+  Quarantine* quarantine_;
+  std::atomic<int> num_skipped_{0};
+};
+
+}  // namespace flysfm

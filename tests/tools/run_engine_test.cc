@@ -1,0 +1,199 @@
+// The engine loop of batch, demo and live (RunEngine) with faults put in
+// it: an engine that throws on one image, an engine that kills the process
+// during one, an output folder that cannot be written, a second process on
+// the same --out.
+
+#include <signal.h>
+#include <spawn.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdlib>
+#include <fstream>
+#include <set>
+#include <stdexcept>
+
+#include <catch2/catch.hpp>
+#include <nlohmann/json.hpp>
+
+#include "io/run/output_lock.h"
+#include "tests/io/sources/source_fixture.h"
+#include "tests/testing/temp_dir.h"
+#include "tests/tools/live_process.h"
+#include "tools/engine_flags.h"
+
+extern char** environ;
+
+namespace flysfm {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr int kImages = 4;
+// The image the injected faults hit.
+const char* const kPoison = "shot01.jpg";
+// Where the child process of the crash test runs (set for it only).
+const char* const kChildOutVariable = "FLYSFM_TEST_CRASH_OUT";
+
+// The engine's part replaced by a quick stand-in that records what it saw
+// (the faults are the point here, not the model).
+std::vector<ImageResult> FakeAddImage(std::vector<std::string>* seen, PreparedFrame frame) {
+  seen->push_back(frame.frame.name);
+  ImageResult result;
+  result.name = frame.frame.name;
+  result.status = ImageStatus::kPending;
+  result.reason = "stand-in";
+  return {result};
+}
+
+EngineFlags Flags(const fs::path& out) {
+  EngineFlags flags;
+  flags.out = out.string();
+  flags.refresh_seconds = 0;
+  return flags;
+}
+
+int Run(const fs::path& images, const fs::path& out, RunEngineOptions options) {
+  FrameListSource source(ListImageFolder(images));
+  Engine engine = EngineFlags().MakeEngine();
+  return RunEngine(&source, &engine, Flags(out), options);
+}
+
+nlohmann::json Summary(const fs::path& out) {
+  return nlohmann::json::parse(testing::ReadText(out / "summary.json"));
+}
+
+std::vector<std::string> LoggedNames(const fs::path& out) {
+  std::vector<std::string> names;
+  for (const std::string& line : testing::LinesStartingWith(out / "log.jsonl", "{")) {
+    names.push_back(nlohmann::json::parse(line)["name"].get<std::string>());
+  }
+  return names;
+}
+
+TEST_CASE("An engine exception on one image is counted, quarantined, and the run goes on") {
+  const fs::path dir = testing::MakeTempDir("run_engine_throw");
+  testing::WriteTestJpegs(dir / "images", kImages);
+  const fs::path out = dir / "out";
+  std::vector<std::string> seen;
+  RunEngineOptions options;
+  options.add_image = [&](Engine*, PreparedFrame frame) {
+    // A broken invariant: a std::logic_error, not a runtime_error.
+    if (frame.frame.name == kPoison) throw std::logic_error("broken invariant");
+    return FakeAddImage(&seen, std::move(frame));
+  };
+  int exit_code = -1;
+  REQUIRE_NOTHROW(exit_code = Run(dir / "images", out, options));
+  CHECK(exit_code == 0);
+  CHECK(seen == std::vector<std::string>{"shot00.jpg", "shot02.jpg", "shot03.jpg"});
+  CHECK(Summary(out)["engine_errors"] == 1);
+  CHECK(Summary(out)["images_in"] == kImages);
+  // The log names every image received, the failed one with its reason.
+  const std::vector<std::string> logged = LoggedNames(out);
+  CHECK(std::set<std::string>(logged.begin(), logged.end()).size() == std::size_t(kImages));
+  CHECK_THAT(testing::ReadText(out / "log.jsonl"), Catch::Contains("broken invariant"));
+
+  // The restart does not give it to the engine again.
+  seen.clear();
+  options.add_image = [&](Engine*, PreparedFrame frame) {
+    return FakeAddImage(&seen, std::move(frame));
+  };
+  CHECK(Run(dir / "images", out, options) == 0);
+  CHECK(seen == std::vector<std::string>{"shot00.jpg", "shot02.jpg", "shot03.jpg"});
+  CHECK(Summary(out)["quarantined"] == 1);
+}
+
+TEST_CASE("A failed output write is counted and the run goes on") {
+  const fs::path dir = testing::MakeTempDir("run_engine_write");
+  testing::WriteTestJpegs(dir / "images", kImages);
+  const fs::path out = dir / "out";
+  fs::create_directories(out);
+  // sparse/ cannot be made: every model write fails.
+  std::ofstream(out / "sparse") << "not a folder";
+  std::vector<std::string> seen;
+  RunEngineOptions options;
+  options.add_image = [&](Engine*, PreparedFrame frame) {
+    return FakeAddImage(&seen, std::move(frame));
+  };
+  int exit_code = -1;
+  REQUIRE_NOTHROW(exit_code = Run(dir / "images", out, options));
+  // The final outputs are missing: the exit code says so.
+  CHECK(exit_code == 1);
+  CHECK(seen.size() == std::size_t(kImages));
+  CHECK(LoggedNames(out).size() == std::size_t(kImages));
+}
+
+// Run only as the child of the next test (hidden: "[.]"): the engine dies
+// (abort) in the middle of kPoison, as a crash inside it would.
+TEST_CASE("crash child", "[.]") {
+  const char* out = std::getenv(kChildOutVariable);
+  REQUIRE(out != nullptr);
+  RunEngineOptions options;
+  // No core file for an abort on purpose.
+  const rlimit no_core = {0, 0};
+  ::setrlimit(RLIMIT_CORE, &no_core);
+  options.add_image = [](Engine*, PreparedFrame frame) {
+    if (frame.frame.name == kPoison) std::abort();
+    std::vector<std::string> seen;
+    return FakeAddImage(&seen, std::move(frame));
+  };
+  Run(fs::path(out).parent_path() / "images", out, options);
+}
+
+TEST_CASE("After a process crashed on one image, the restart skips that image") {
+  const fs::path dir = testing::MakeTempDir("run_engine_crash");
+  testing::WriteTestJpegs(dir / "images", kImages);
+  const fs::path out = dir / "out";
+  const std::string variable = std::string(kChildOutVariable) + "=" + out.string();
+  std::vector<char*> environment = {const_cast<char*>(variable.c_str())};
+  for (char** entry = environ; *entry != nullptr; ++entry) environment.push_back(*entry);
+  environment.push_back(nullptr);
+  std::string self = fs::read_symlink("/proc/self/exe").string();
+  std::string test_name = "crash child";
+  char* argv[] = {self.data(), test_name.data(), nullptr};
+  pid_t child = 0;
+  REQUIRE(::posix_spawn(&child, self.c_str(), nullptr, nullptr, argv, environment.data()) == 0);
+  REQUIRE(testing::WaitForExit(child, 30) == 128 + SIGABRT);
+
+  std::vector<std::string> seen;
+  RunEngineOptions options;
+  options.add_image = [&](Engine*, PreparedFrame frame) {
+    return FakeAddImage(&seen, std::move(frame));
+  };
+  CHECK(Run(dir / "images", out, options) == 0);
+  // The image being decoded ahead when the process died is not blamed.
+  CHECK(seen == std::vector<std::string>{"shot00.jpg", "shot02.jpg", "shot03.jpg"});
+  CHECK(Summary(out)["quarantined"] == 1);
+  CHECK_THAT(testing::ReadText(out / "quarantine.tsv"),
+             Catch::Contains(std::string("crashed\t") + kPoison));
+
+  // --retry-quarantined gives it another try.
+  seen.clear();
+  EngineFlags flags = Flags(out);
+  flags.retry_quarantined = true;
+  FrameListSource source(ListImageFolder(dir / "images"));
+  Engine engine = EngineFlags().MakeEngine();
+  CHECK(RunEngine(&source, &engine, flags, options) == 0);
+  CHECK(seen.size() == std::size_t(kImages));
+}
+
+TEST_CASE("A second flysfm on the same --out fails at once, naming the first") {
+  const fs::path dir = testing::MakeTempDir("run_engine_lock");
+  testing::WriteTestJpegs(dir / "images", kImages);
+  const fs::path out = dir / "out";
+  const OutputLock held(out);
+  const pid_t pid = testing::SpawnFlysfm({"batch", (dir / "images").string(), "--out",
+                                          out.string()},
+                                         dir / "second.txt");
+  CHECK(testing::WaitForExit(pid, 20) == 1);
+  CHECK_THAT(testing::ReadText(dir / "second.txt"),
+             Catch::Contains("in use by another flysfm process (pid " +
+                             std::to_string(::getpid()) + ")"));
+  CHECK_FALSE(fs::exists(out / "log.jsonl"));
+  // In the same process too: the lock is per open file.
+  CHECK_THROWS_WITH(OutputLock(out), Catch::Contains("in use"));
+}
+
+}  // namespace
+}  // namespace flysfm
