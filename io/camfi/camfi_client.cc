@@ -120,7 +120,7 @@ CamfiSource::CamfiSource(const CamfiOptions& options, const std::filesystem::pat
   }
   JournalContents contents;
   std::size_t torn_bytes = 0;
-  journal_ = std::make_unique<JournalFile>(store_dir_ / kJournalName, options_.store_write_fault,
+  journal_ = std::make_unique<CamfiJournalFile>(store_dir_ / kJournalName, options_.store_write_fault,
                                            &contents, &torn_bytes);
   if (torn_bytes > 0) {
     Log(std::string(kJournalName) + ": the last record was cut short by a crash (" +

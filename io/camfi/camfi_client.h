@@ -105,9 +105,9 @@ struct CamfiOptions {
   // Overrides the device's pingInterval / pingTimeout when > 0 (ms).
   int ping_interval_override_ms = 0;
   int ping_timeout_override_ms = 0;
-  // Tests only: a full disk on demand (JournalFile::WriteFault), asked
+  // Tests only: a full disk on demand (CamfiJournalFile::WriteFault), asked
   // before every write to the store, shot or journal record.
-  JournalFile::WriteFault store_write_fault;
+  CamfiJournalFile::WriteFault store_write_fault;
 
   // False when an option is out of range; `*bad_option` then names it.
   bool Check(std::string* bad_option = nullptr) const;
@@ -221,7 +221,7 @@ class CamfiSource : public ImageSource {
   std::vector<std::string> stored_paths_;
   bool baseline_done_ = false;
   CamfiStats stats_;
-  std::unique_ptr<JournalFile> journal_;
+  std::unique_ptr<CamfiJournalFile> journal_;
   // Known paths a complete listing did not show (session thread only): one
   // that shows again may hold a new shot.
   std::set<std::string> vanished_;

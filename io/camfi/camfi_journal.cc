@@ -171,7 +171,7 @@ JournalContents ParseJournal(std::string_view text) {
   return contents;
 }
 
-JournalFile::JournalFile(const std::filesystem::path& path, WriteFault write_fault,
+CamfiJournalFile::CamfiJournalFile(const std::filesystem::path& path, WriteFault write_fault,
                          JournalContents* contents, std::size_t* torn_bytes)
     : path_(path), write_fault_(std::move(write_fault)) {
   std::string text;
@@ -192,11 +192,11 @@ JournalFile::JournalFile(const std::filesystem::path& path, WriteFault write_fau
   size_ = contents->complete_bytes;
 }
 
-JournalFile::~JournalFile() {
+CamfiJournalFile::~CamfiJournalFile() {
   if (fd_ >= 0) ::close(fd_);
 }
 
-bool JournalFile::Append(const std::string& records, std::string* error) {
+bool CamfiJournalFile::Append(const std::string& records, std::string* error) {
   const int fault = write_fault_ ? write_fault_(path_) : 0;
   const std::size_t size = fault != 0 ? records.size() / 2 : records.size();
   std::size_t written = 0;

@@ -69,7 +69,7 @@ JournalContents ParseJournal(std::string_view text);
 // The journal file, open for appending. Every append is whole records or
 // nothing: a write that fails half way (a full disk) is cut back off the
 // file, and the next append works as soon as the disk does.
-class JournalFile {
+class CamfiJournalFile {
  public:
   // Tests only: asked before every write to the store with the file it
   // writes; an errno value (ENOSPC) makes the write put down half its bytes
@@ -79,11 +79,11 @@ class JournalFile {
   // Reads `path` (missing: empty) into `*contents`, cuts a torn last line off
   // the file (`*torn_bytes`: how many bytes) and opens it for appending.
   // Throws std::runtime_error naming the path when that fails.
-  JournalFile(const std::filesystem::path& path, WriteFault write_fault, JournalContents* contents,
+  CamfiJournalFile(const std::filesystem::path& path, WriteFault write_fault, JournalContents* contents,
               std::size_t* torn_bytes);
-  ~JournalFile();
-  JournalFile(const JournalFile&) = delete;
-  JournalFile& operator=(const JournalFile&) = delete;
+  ~CamfiJournalFile();
+  CamfiJournalFile(const CamfiJournalFile&) = delete;
+  CamfiJournalFile& operator=(const CamfiJournalFile&) = delete;
 
   // Appends `records` (formatted lines) in one write; false with `*error` when
   // it failed, the file then as it was before.

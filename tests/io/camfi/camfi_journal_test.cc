@@ -77,7 +77,7 @@ TEST_CASE("A torn last journal line is cut off before the next append") {
   {
     JournalContents contents;
     std::size_t torn = 0;
-    JournalFile journal(path, nullptr, &contents, &torn);
+    CamfiJournalFile journal(path, nullptr, &contents, &torn);
     CHECK(torn == std::string("stored\t/b.JPG\tb.J").size());
     CHECK(contents.records.size() == 2);
     CHECK(ReadText(path) == complete);
@@ -96,7 +96,7 @@ TEST_CASE("A journal append on a full disk leaves no half record, and the next o
   bool full = true;
   JournalContents contents;
   std::size_t torn = 0;
-  JournalFile journal(
+  CamfiJournalFile journal(
       path, [&](const std::filesystem::path&) { return full ? ENOSPC : 0; }, &contents, &torn);
   std::string error;
   CHECK_FALSE(journal.Append(FormatJournalRecord(JournalRecord::Ignored("/a.JPG")), &error));
