@@ -206,6 +206,14 @@ void AddLiveCommand(CLI::App& app) {
                     stats.stored, stats.replayed, stats.events, stats.duplicate_events,
                     stats.found_by_listing, stats.download_failures, stats.sessions,
                     stats.session_failures);
+        std::printf("camfi: %d re-fetched to compare, %d new shots at a known path; %d failed "
+                    "and %d truncated listings; %d oversized bodies, %d timed-out downloads, "
+                    "%d rejected event packets; %d store failures (disk full?); journal: %d "
+                    "records skipped, %d torn\n",
+                    stats.rechecked, stats.reused_paths, stats.listing_failures,
+                    stats.truncated_listings, stats.oversized, stats.timed_out_downloads,
+                    stats.rejected_packets, stats.store_failures, stats.journal_skipped,
+                    stats.journal_torn);
       }
     } catch (const std::invalid_argument& e) {
       std::cerr << "flysfm live: " << e.what() << "\n";

@@ -151,7 +151,7 @@ class CamfiSource : public ImageSource {
   std::optional<Frame> Next() override;
   // Thread-safe; a download in progress is abandoned (the shot stays on the
   // card and is fetched by the next run on this store).
-  void Stop();
+  void Stop() override;
 
   CamfiStats stats() const;
   // Device paths in the store, in journal order (a reused path once per shot).
