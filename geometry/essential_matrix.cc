@@ -240,38 +240,47 @@ int RelativePoseFromEssential(const Eigen::Matrix3d& E,
   const Eigen::Vector3d translations[4] = {t, t, -t, -t};
   const Matrix3x4d cam1 = Matrix3x4d::Identity();
   const int n = static_cast<int>(points1.size());
-  int best_count = 0;
-  int best = -1;
-  std::vector<Eigen::Vector3d> best_points, points(n);
-  std::vector<char> best_flags, flags(n);
-  for (int k = 0; k < 4; ++k) {
+  // Triangulates match i under hypothesis k; true if in front of both
+  // cameras and within max_depth.
+  const auto in_front_of = [&](int k, int i, Eigen::Vector3d* point) {
     Matrix3x4d cam2;
     cam2.leftCols<3>() = rotations[k];
     cam2.col(3) = translations[k];
-    int count = 0;
-    for (int i = 0; i < n; ++i) {
-      flags[i] = 0;
-      points[i].setZero();
-      const auto X = TriangulatePoint(cam1, cam2, points1[i], points2[i]);
-      if (!X) continue;
-      points[i] = *X;
-      const double depth1 = X->z();
-      const double depth2 = (cam2 * X->homogeneous()).z();
-      if (depth1 > 0 && depth2 > 0 && depth1 < max_depth && depth2 < max_depth) {
-        flags[i] = 1;
-        ++count;
-      }
-    }
-    if (count > best_count) {
-      best_count = count;
+    const auto X = TriangulatePoint(cam1, cam2, points1[i], points2[i]);
+    if (!X) return false;
+    *point = *X;
+    const double depth1 = X->z();
+    const double depth2 = (cam2 * X->homogeneous()).z();
+    return depth1 > 0 && depth2 > 0 && depth1 < max_depth && depth2 < max_depth;
+  };
+  // The hypothesis is a majority vote, which an even subset of at most
+  // kVoters matches decides as well as all of them; only the winner
+  // triangulates every match (two-view verification calls this per pair).
+  constexpr int kVoters = 100;
+  const int stride = std::max(1, n / kVoters);
+  int best = -1;
+  int best_votes = 0;
+  Eigen::Vector3d point;
+  for (int k = 0; k < 4; ++k) {
+    int votes = 0;
+    for (int i = 0; i < n; i += stride) votes += in_front_of(k, i, &point);
+    if (votes > best_votes) {
+      best_votes = votes;
       best = k;
-      best_points.swap(points);
-      best_flags.swap(flags);
-      points.assign(n, Eigen::Vector3d::Zero());
-      flags.assign(n, 0);
     }
   }
   if (best < 0) return 0;
+  std::vector<Eigen::Vector3d> best_points(n, Eigen::Vector3d::Zero());
+  std::vector<char> best_flags(n, 0);
+  int best_count = 0;
+  for (int i = 0; i < n; ++i) {
+    point.setZero();
+    if (in_front_of(best, i, &point)) {
+      best_flags[i] = 1;
+      ++best_count;
+    }
+    best_points[i] = point;
+  }
   *cam2_from_cam1 = Rigid3d(rotations[best], translations[best]);
   if (points3D) *points3D = std::move(best_points);
   if (in_front) *in_front = std::move(best_flags);

@@ -33,7 +33,8 @@ void DecomposeEssentialMatrix(const Eigen::Matrix3d& E, Eigen::Matrix3d* R1,
 
 // Relative pose from E by cheirality: of the four decompositions, the one that
 // puts the most matches in front of both cameras (and closer than
-// `max_depth` times the unit baseline). Returns that number of matches (0:
+// `max_depth` times the unit baseline), as voted by an even subset of at most
+// 100 matches. Returns the number of all matches in front under it (0:
 // no valid pose, *cam2_from_cam1 untouched). `points3D`, if given, receives
 // the triangulated points in camera-1 coordinates and `in_front` their flags,
 // one per match.
