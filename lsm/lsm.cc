@@ -83,28 +83,25 @@ int MarginAfter(LsmInterpolation interpolation) {
   return interpolation == LsmInterpolation::kCubicSpline ? 2 : 1;
 }
 
-// In place, the cubic B-spline coefficients of n samples spaced `stride`
-// apart, with mirror boundaries (Unser 1999, "Splines: a perfect fit for
-// signal and image processing"; causal and anti-causal recursion).
-void SplinePrefilter(float* line, int n, int stride,
-                     std::vector<double>* work) {
+using RowArrayXXd = Eigen::Array<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
+// In place, the cubic B-spline coefficients of each column of `c` (one signal
+// per column, its samples down the rows), with mirror boundaries (Unser 1999,
+// "Splines: a perfect fit for signal and image processing"; causal and
+// anti-causal recursion). Recursing over rows of many columns at once runs
+// the recursion in vector registers and reads memory in order.
+void SplinePrefilterColumns(Eigen::Ref<RowArrayXXd> c) {
+  const Eigen::Index n = c.rows();
   if (n < 2) return;
   const double z = std::sqrt(3.0) - 2.0;
-  std::vector<double>& c = *work;
-  c.resize(n);
-  for (int i = 0; i < n; ++i)
-    c[i] = 6.0 * line[static_cast<std::ptrdiff_t>(i) * stride];
+  c *= 6.0;
   // |z|^12 < 1e-6: the mirrored causal sum is truncated there.
-  const int horizon = std::min(n, 12);
-  double sum = 0.0;
-  double power = 1.0;
-  for (int i = 0; i < horizon; ++i, power *= z) sum += power * c[i];
-  c[0] = sum;
-  for (int i = 1; i < n; ++i) c[i] += z * c[i - 1];
-  c[n - 1] = (z / (z * z - 1.0)) * (z * c[n - 2] + c[n - 1]);
-  for (int i = n - 2; i >= 0; --i) c[i] = z * (c[i + 1] - c[i]);
-  for (int i = 0; i < n; ++i)
-    line[static_cast<std::ptrdiff_t>(i) * stride] = static_cast<float>(c[i]);
+  const Eigen::Index horizon = std::min<Eigen::Index>(n, 12);
+  double power = z;
+  for (Eigen::Index i = 1; i < horizon; ++i, power *= z) c.row(0) += power * c.row(i);
+  for (Eigen::Index i = 1; i < n; ++i) c.row(i) += z * c.row(i - 1);
+  c.row(n - 1) = (z / (z * z - 1.0)) * (z * c.row(n - 2) + c.row(n - 1));
+  for (Eigen::Index i = n - 2; i >= 0; --i) c.row(i) = z * (c.row(i + 1) - c.row(i));
 }
 
 // Whether the parallelogram of window offsets |u|, |v| <= reach mapped by
@@ -169,15 +166,25 @@ LsmImage::LsmImage(const cv::Mat& grey, int origin_x, int origin_y)
 }
 
 void LsmImage::ComputeSplineCoefficients() {
-  spline_ = pixels_.clone();
-  std::vector<double> work;
-  float* data = spline_.ptr<float>();
-  for (int y = 0; y < spline_.rows; ++y) {
-    SplinePrefilter(data + static_cast<std::ptrdiff_t>(y) * spline_.cols,
-                    spline_.cols, 1, &work);
+  spline_.create(pixels_.rows, pixels_.cols, CV_32F);
+  using RowArrayXXf = Eigen::Array<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+  const Eigen::Map<const RowArrayXXf> pixels(pixels_.ptr<float>(), pixels_.rows, pixels_.cols);
+  Eigen::Map<RowArrayXXf> spline(spline_.ptr<float>(), spline_.rows, spline_.cols);
+  // In strips of rows (transposed, so each row is a column), then of
+  // columns, so that the double-precision copy stays small for a whole photo.
+  constexpr Eigen::Index kStrip = 64;
+  RowArrayXXd strip;
+  for (Eigen::Index y = 0; y < pixels.rows(); y += kStrip) {
+    const Eigen::Index height = std::min(kStrip, pixels.rows() - y);
+    strip = pixels.middleRows(y, height).transpose().cast<double>();
+    SplinePrefilterColumns(strip);
+    spline.middleRows(y, height) = strip.transpose().cast<float>();
   }
-  for (int x = 0; x < spline_.cols; ++x) {
-    SplinePrefilter(data + x, spline_.rows, spline_.cols, &work);
+  for (Eigen::Index x = 0; x < spline.cols(); x += kStrip) {
+    const Eigen::Index width = std::min(kStrip, spline.cols() - x);
+    strip = spline.middleCols(x, width).cast<double>();
+    SplinePrefilterColumns(strip);
+    spline.middleCols(x, width) = strip.cast<float>();
   }
 }
 

@@ -106,6 +106,40 @@ TEST_CASE("LSM recovers a known affine warp and brightness change") {
   }
 }
 
+// The interpolation property: the cubic B-spline of the coefficients passes
+// through every pixel, (c[i-1] + 4 c[i] + c[i+1]) / 6 in each axis. An image
+// larger than the prefilter's strips of 64 rows and columns, with a ragged
+// last strip, and one smaller than the truncated boundary sum (12 samples).
+TEST_CASE("Spline coefficients interpolate every pixel") {
+  std::mt19937 rng(7);
+  std::uniform_int_distribution<int> level(0, 255);
+  for (const cv::Size size : {cv::Size(150, 70), cv::Size(9, 5)}) {
+    cv::Mat grey(size, CV_8U);
+    for (int y = 0; y < grey.rows; ++y) {
+      for (int x = 0; x < grey.cols; ++x) grey.at<std::uint8_t>(y, x) = std::uint8_t(level(rng));
+    }
+    const LsmImage image(grey);
+    const float* c = image.spline_coefficients();
+    const int w = image.width();
+    const double weight[3] = {1.0 / 6, 4.0 / 6, 1.0 / 6};
+    double worst = 0;
+    for (int y = 1; y + 1 < image.height(); ++y) {
+      for (int x = 1; x + 1 < w; ++x) {
+        double value = 0;
+        for (int dy = -1; dy <= 1; ++dy) {
+          for (int dx = -1; dx <= 1; ++dx) {
+            value += weight[dy + 1] * weight[dx + 1] * c[(y + dy) * w + x + dx];
+          }
+        }
+        worst = std::max(worst, std::abs(value - grey.at<std::uint8_t>(y, x)));
+      }
+    }
+    // Float coefficients of values up to 255, and the boundary sum truncated
+    // at |z|^12 < 1e-6 of a 255 step.
+    CHECK(worst < 1e-3);
+  }
+}
+
 TEST_CASE("Cubic-spline sampling removes the bilinear phase bias") {
   // Half a pixel of shift: bilinear interpolation smooths the warped window
   // and not the template, which biases LSM (Schreier et al. 2000).
