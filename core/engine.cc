@@ -28,6 +28,7 @@ void AddTimes(const StageTimes& from, StageTimes* to) {
 
 bool Engine::Options::Check(std::string* problem) const {
   const std::pair<bool, const char*> checks[] = {
+      {decode.Check(), "decode"},
       {sift.Check(), "sift"},
       {retrieval.Check(), "retrieval"},
       {verification.Check(), "verification"},
@@ -117,8 +118,9 @@ PreparedFrame Engine::Prepare(const Frame& frame, const Options& options) {
   prepared.frame.timestamp = frame.timestamp;
   prepared.frame.arrival = frame.arrival;
   auto start = std::chrono::steady_clock::now();
-  DecodedImage decoded = frame.bytes.empty() ? DecodeImageFile(frame.path.string())
-                                             : DecodeImageBytes(frame.bytes);
+  DecodedImage decoded = frame.bytes.empty()
+                             ? DecodeImageFile(frame.path.string(), options.decode)
+                             : DecodeImageBytes(frame.bytes, options.decode);
   prepared.decode_ms = MillisecondsSince(start);
   if (!decoded.ok()) {
     prepared.error = std::move(decoded.error);

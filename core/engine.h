@@ -28,6 +28,7 @@
 #include "core/registration.h"
 #include "core/triangulator.h"
 #include "matching/features.h"
+#include "matching/image_decode.h"
 #include "matching/match_store.h"
 #include "retrieval/image_retriever.h"
 
@@ -51,6 +52,8 @@ struct PreparedFrame {
 class Engine {
  public:
   struct Options {
+    // Bounds on an image's bytes and pixels before it is decoded (Prepare).
+    DecodeOptions decode;
     SiftOptions sift;
     ImageRetrieverOptions retrieval;
     // Matching, two-view geometry and LSM refinement of each candidate pair.

@@ -223,8 +223,8 @@ DecodedImage DecodeImageBytes(const std::uint8_t* data, std::size_t size,
     if (pixels > options.max_image_pixels) {
       char message[160];
       std::snprintf(message, sizeof(message),
-                    "the header claims %u x %u pixels (%.0f MP), above max_image_pixels "
-                    "(%.0f MP); not decoded",
+                    "the header claims %u x %u pixels (%.4g MP), above max_image_pixels "
+                    "(%.4g MP); not decoded",
                     claimed->width, claimed->height, pixels / 1e6,
                     options.max_image_pixels / 1e6);
       return Failure(message);

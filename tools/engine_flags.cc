@@ -39,6 +39,11 @@ void AddEngineFlags(CLI::App* command, EngineFlags* flags) {
   command->add_flag("--retry-quarantined", flags->retry_quarantined,
                     "Give the images in OUT/quarantine.tsv (a previous run died or the "
                     "engine failed on them) another try");
+  command->add_option("--max-megapixels", flags->max_megapixels,
+                      "Reject an image whose header claims more pixels, before decoding it "
+                      "(a corrupt or hostile file may claim 60000 x 60000)")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
   command->add_option("--refresh-seconds", flags->refresh_seconds,
                       "Rewrite the model in --out at most this often while running")
       ->check(CLI::NonNegativeNumber)
@@ -52,6 +57,7 @@ Engine EngineFlags::MakeEngine() const {
     if (it != ablations.end() && it->second) ablation.apply(&options);
   }
   options.final_global_ba = !no_global_ba;
+  options.decode.max_image_pixels = max_megapixels * 1e6;
   std::optional<Camera> known_camera;
   if (!camera.empty()) known_camera = Camera::FromString(camera, 0, 0);
   std::shared_ptr<const RetrievalModel> model;

@@ -25,6 +25,8 @@ struct EngineFlags {
   std::string out;
   double refresh_seconds = 2.0;
   bool retry_quarantined = false;
+  // DecodeOptions::max_image_pixels, in megapixels.
+  double max_megapixels = DecodeOptions().max_image_pixels / 1e6;
 
   // Throws std::invalid_argument with a one-line message for a bad camera or
   // an unreadable retrieval model.

@@ -11,6 +11,7 @@
 
 #include <cstdlib>
 #include <fstream>
+#include <map>
 #include <set>
 #include <stdexcept>
 
@@ -102,6 +103,37 @@ TEST_CASE("An engine exception on one image is counted, quarantined, and the run
   CHECK(Run(dir / "images", out, options) == 0);
   CHECK(seen == std::vector<std::string>{"shot00.jpg", "shot02.jpg", "shot03.jpg"});
   CHECK(Summary(out)["quarantined"] == 1);
+}
+
+TEST_CASE("Images over --max-megapixels are rejected before decoding, with the reason logged") {
+  const fs::path dir = testing::MakeTempDir("run_engine_megapixels");
+  // 64 x 48, 56, 64 and 72 pixels: the last two claim more than 4 000.
+  testing::WriteTestJpegs(dir / "images", kImages);
+  const fs::path out = dir / "out";
+  CLI::App app;
+  EngineFlags flags;
+  AddEngineFlags(&app, &flags);
+  app.parse("--out " + out.string() + " --max-megapixels 0.004 --refresh-seconds 0", false);
+  FrameListSource source(ListImageFolder(dir / "images"));
+  Engine engine = flags.MakeEngine();
+  CHECK(RunEngine(&source, &engine, flags) == 0);
+  std::map<std::string, std::string> reasons;
+  for (const std::string& line : testing::LinesStartingWith(out / "log.jsonl", "{")) {
+    const nlohmann::json record = nlohmann::json::parse(line);
+    reasons[record["name"].get<std::string>()] = record.value("reason", "");
+  }
+  REQUIRE(reasons.size() == std::size_t(kImages));
+  for (const char* const small : {"shot00.jpg", "shot01.jpg"}) {
+    CHECK_THAT(reasons[small], !Catch::Contains("max_image_pixels"));
+  }
+  for (const char* const large : {"shot02.jpg", "shot03.jpg"}) {
+    CHECK_THAT(reasons[large], Catch::Contains("above max_image_pixels"));
+  }
+
+  CLI::App bad;
+  EngineFlags bad_flags;
+  AddEngineFlags(&bad, &bad_flags);
+  CHECK_THROWS_AS(bad.parse("--out x --max-megapixels 0", false), CLI::ValidationError);
 }
 
 TEST_CASE("A failed output write is counted and the run goes on") {
