@@ -593,8 +593,6 @@ bool CamfiSource::Keep(const Pending& item, const std::vector<std::uint8_t>& byt
   const auto undo = [&] {
     std::error_code ignored;
     std::filesystem::remove(file, ignored);
-    std::filesystem::path temporary = file;
-    std::filesystem::remove(temporary += ".tmp", ignored);
     std::lock_guard<std::mutex> lock(mutex_);
     store_names_.erase(name);
   };

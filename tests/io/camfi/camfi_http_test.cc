@@ -15,14 +15,25 @@ TEST_CASE("EncodeDevicePath keeps the path one segment") {
   CHECK(EncodeDevicePath("/a b/c+d~e") == "%2Fa%20b%2Fc%2Bd~e");
 }
 
+// An emulator on free ports whose camera has taken one test JPEG.
+struct OneShotEmulator {
+  static CamfiEmulatorOptions Options(const std::string& name) {
+    CamfiEmulatorOptions options;
+    options.images = testing::WriteTestJpegs(testing::MakeTempDir(name), 1);
+    options.http_port = 0;
+    options.event_port = 0;
+    return options;
+  }
+  explicit OneShotEmulator(const std::string& name) : options(Options(name)), emulator(options) {
+    emulator.Shoot();
+  }
+  const CamfiEmulatorOptions options;
+  CamfiEmulator emulator;
+};
+
 TEST_CASE("CamfiHttp sends %2F as is and reports failures") {
-  const std::filesystem::path dir = testing::MakeTempDir("camfi_http");
-  CamfiEmulatorOptions options;
-  options.images = testing::WriteTestJpegs(dir, 1);
-  options.http_port = 0;
-  options.event_port = 0;
-  CamfiEmulator emulator(options);
-  emulator.Shoot();
+  OneShotEmulator shot("camfi_http");
+  CamfiEmulator& emulator = shot.emulator;
   const CamfiHttp http("127.0.0.1", emulator.http_port(), "");
   const HttpResult raw =
       http.Get("/raw/" + EncodeDevicePath(emulator.DevicePath(0)), testing::kQuickCall);
@@ -36,13 +47,9 @@ TEST_CASE("CamfiHttp sends %2F as is and reports failures") {
 }
 
 TEST_CASE("CamfiHttp abandons a body over its bound") {
-  const std::filesystem::path dir = testing::MakeTempDir("camfi_http_bound");
-  CamfiEmulatorOptions options;
-  options.images = testing::WriteTestJpegs(dir, 1);
-  options.http_port = 0;
-  options.event_port = 0;
-  CamfiEmulator emulator(options);
-  emulator.Shoot();
+  OneShotEmulator shot("camfi_http_bound");
+  CamfiEmulator& emulator = shot.emulator;
+  const CamfiEmulatorOptions& options = shot.options;
   const std::string target = "/raw/" + EncodeDevicePath(emulator.DevicePath(0));
   const std::uint64_t size = std::filesystem::file_size(options.images[0]);
   const CamfiHttp http("127.0.0.1", emulator.http_port(), "");
