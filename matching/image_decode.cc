@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <limits>
 #include <stdexcept>
 
 #include <libexif/exif-data.h>
@@ -198,6 +199,21 @@ std::optional<ImageSize> ReadImageSize(const std::uint8_t* data, std::size_t siz
   return std::nullopt;
 }
 
+ExifFields ReadExif(const std::uint8_t* data, std::size_t size, int width, int height) {
+  ExifFields fields;
+  // libexif takes an unsigned int length; EXIF sits at the start of a JPEG, so
+  // a buffer beyond 4 GB cut to that length loses none of it.
+  const unsigned int length = static_cast<unsigned int>(
+      std::min<std::size_t>(size, std::numeric_limits<unsigned int>::max()));
+  if (data == nullptr || length == 0) return fields;
+  if (ExifData* exif = exif_data_new_from_data(data, length)) {
+    fields.focal_length_px = ExifFocalLengthPx(exif, width, height);
+    fields.camera_identity = ExifCameraIdentity(exif);
+    exif_data_unref(exif);
+  }
+  return fields;
+}
+
 DecodedImage DecodeImageBytes(const std::uint8_t* data, std::size_t size,
                               const DecodeOptions& options) {
   if (data == nullptr || size == 0) return Failure("empty image data (0 bytes)");
@@ -245,11 +261,9 @@ DecodedImage DecodeImageBytes(const std::uint8_t* data, std::size_t size,
   DecodedImage result;
   result.image = decoded;
   if (jpeg) {
-    if (ExifData* exif = exif_data_new_from_data(data, static_cast<unsigned int>(size))) {
-      result.exif_focal_length_px = ExifFocalLengthPx(exif, decoded.cols, decoded.rows);
-      result.camera_identity = ExifCameraIdentity(exif);
-      exif_data_unref(exif);
-    }
+    ExifFields exif = ReadExif(data, size, decoded.cols, decoded.rows);
+    result.exif_focal_length_px = exif.focal_length_px;
+    result.camera_identity = std::move(exif.camera_identity);
   }
   return result;
 }

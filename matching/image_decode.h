@@ -66,6 +66,17 @@ std::optional<ImageSize> ReadImageSize(const std::uint8_t* data, std::size_t siz
 bool HasJpegMarkers(const std::uint8_t* data, std::size_t size);
 bool HasPngMarkers(const std::uint8_t* data, std::size_t size);
 
+// What the engine takes from EXIF; see DecodedImage for each field.
+struct ExifFields {
+  std::optional<double> focal_length_px;
+  std::string camera_identity;
+};
+
+// Reads EXIF from a whole JPEG or from an APP1 payload alone (starting
+// "Exif\0\0"), for an image of `width` x `height` pixels (focal lengths in
+// pixels scale with the image). Bytes without readable EXIF give no fields.
+ExifFields ReadExif(const std::uint8_t* data, std::size_t size, int width, int height);
+
 // Decodes JPEG, PNG and the other formats OpenCV reads. A JPEG must end with
 // its EOI marker and a PNG with its IEND chunk: a truncated file is a failure
 // even where the codec would return a partly grey image. A JPEG or PNG

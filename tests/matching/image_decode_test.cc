@@ -306,5 +306,38 @@ TEST_CASE("EXIF tells camera bodies, lenses and zoom settings apart") {
   CHECK(DecodeImageBytes(Encode(image, ".jpg")).camera_identity.empty());
 }
 
+
+TEST_CASE("ReadExif reads a whole JPEG and its APP1 payload alone alike") {
+  testing::ExifTags tags;
+  tags.numbers = {{EXIF_TAG_FOCAL_LENGTH_IN_35MM_FILM, 24}, {EXIF_TAG_FOCAL_LENGTH, 8.8}};
+  tags.texts = {{EXIF_TAG_MAKE, "DJI"}, {EXIF_TAG_MODEL, "FC6310"}};
+  const std::vector<std::uint8_t> jpeg = testing::JpegWithExif(MakeTexture(60, 40, 3), tags);
+  // JpegWithExif puts APP1 right after SOI; its length counts itself.
+  REQUIRE(jpeg.size() > 6);
+  REQUIRE(jpeg[3] == 0xE1);
+  const std::size_t app1_length = std::size_t(jpeg[4]) << 8 | jpeg[5];
+  const std::vector<std::uint8_t> payload(jpeg.begin() + 6, jpeg.begin() + 4 + app1_length);
+  // The pixel size is the caller's: a 3:2 image 6 000 px wide.
+  for (const auto& bytes : {jpeg, payload}) {
+    const ExifFields fields = ReadExif(bytes.data(), bytes.size(), 6000, 4000);
+    REQUIRE(fields.focal_length_px);
+    CHECK(*fields.focal_length_px == Approx(24.0 / 36.0 * 6000));
+    CHECK(fields.camera_identity == "DJI|FC6310|||8.8 mm");
+  }
+  // The same fields as DecodeImageBytes gives, at the decoded size.
+  const DecodedImage decoded = DecodeImageBytes(jpeg);
+  REQUIRE(decoded.ok());
+  const ExifFields at_size = ReadExif(payload.data(), payload.size(), 60, 40);
+  CHECK(at_size.focal_length_px == decoded.exif_focal_length_px);
+  CHECK(at_size.camera_identity == decoded.camera_identity);
+  // No EXIF, cut short, empty, or a degenerate image size: no fields, no crash.
+  const std::vector<std::uint8_t> plain = testing::WithoutExif(jpeg);
+  CHECK_FALSE(ReadExif(plain.data(), plain.size(), 60, 40).focal_length_px);
+  CHECK(ReadExif(plain.data(), plain.size(), 60, 40).camera_identity.empty());
+  CHECK_FALSE(ReadExif(payload.data(), 10, 60, 40).focal_length_px);
+  CHECK_FALSE(ReadExif(nullptr, 0, 60, 40).focal_length_px);
+  CHECK_FALSE(ReadExif(payload.data(), payload.size(), 0, 0).focal_length_px);
+}
+
 }  // namespace
 }  // namespace flysfm
