@@ -60,7 +60,8 @@ std::optional<double> ExifFocalLengthPx(ExifData* exif, int width, int height) {
   } else if (positive(focal_mm) && positive(plane_resolution)) {
     // Resolution unit: 2 inch (the default), 3 cm, 4 mm, 5 um.
     const std::optional<double> unit = ExifNumber(exif, EXIF_TAG_FOCAL_PLANE_RESOLUTION_UNIT);
-    const int code = unit ? int(*unit) : 2;
+    // Compared as read: a hostile value does not fit an int.
+    const double code = unit.value_or(2.0);
     const double unit_mm = code == 3 ? 10.0 : code == 4 ? 1.0 : code == 5 ? 1e-3 : 25.4;
     // The resolution refers to the sensor's full pixel width, which the
     // stored image may be scaled from.
@@ -229,7 +230,15 @@ DecodedImage DecodeImageBytes(const std::uint8_t* data, std::size_t size,
   if (png && !HasPngMarkers(data, size)) {
     return Failure("truncated PNG: no IEND chunk");
   }
-  if (jpeg || png) {
+  // Only the formats whose headers are read here reach OpenCV: its other
+  // decoders allocate whatever a header claims (a 19-byte PPM header claiming
+  // 30000 x 30000 pixels: 2.7 GB) and one of them (DICOM, through GDCM)
+  // aborts the process on a malformed file. Cameras write JPEG, TUM PNG.
+  if (!jpeg && !png) {
+    return Failure("neither JPEG nor PNG (" + std::to_string(size) +
+                   " bytes); only those two are decoded");
+  }
+  {
     const std::optional<ImageSize> claimed = ReadImageSize(data, size);
     if (!claimed) {
       return Failure(jpeg ? "JPEG without a readable frame header (SOF) before its data"

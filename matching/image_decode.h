@@ -77,12 +77,12 @@ struct ExifFields {
 // pixels scale with the image). Bytes without readable EXIF give no fields.
 ExifFields ReadExif(const std::uint8_t* data, std::size_t size, int width, int height);
 
-// Decodes JPEG, PNG and the other formats OpenCV reads. A JPEG must end with
-// its EOI marker and a PNG with its IEND chunk: a truncated file is a failure
-// even where the codec would return a partly grey image. A JPEG or PNG
-// claiming more than `max_image_pixels` is a failure before any decoding;
-// other formats are bounded by their byte count (`max_file_bytes`) and by
-// OpenCV's own limit (OPENCV_IO_MAX_IMAGE_PIXELS, 2^30 pixels).
+// Decodes JPEG and PNG; other bytes are a failure (OpenCV's other decoders
+// allocate what a hostile header claims, and its DICOM reader aborts on a
+// malformed file). A JPEG must end with its EOI marker and a PNG with its
+// IEND chunk: a truncated file is a failure even where the codec would
+// return a partly grey image. A header claiming more than `max_image_pixels`
+// is a failure before any decoding.
 DecodedImage DecodeImageBytes(const std::uint8_t* data, std::size_t size,
                               const DecodeOptions& options = {});
 DecodedImage DecodeImageBytes(const std::vector<std::uint8_t>& bytes,

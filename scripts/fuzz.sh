@@ -24,11 +24,6 @@ echo "fuzz: built in $((SECONDS - start)) s"
 artifacts=$PWD/$build/fuzz/artifacts
 mkdir -p "$artifacts"
 export UBSAN_OPTIONS=print_stacktrace=1
-# DecodeImageBytes bounds the pixels of JPEG and PNG by their headers; other
-# formats only by OpenCV's limit, 2^30 pixels by default (3 GB for a 19-byte
-# PPM header), read once when OpenCV loads. At the fuzz target's 4 MP it
-# explores those formats without every large header being an out-of-memory.
-export OPENCV_IO_MAX_IMAGE_PIXELS=4000000
 status=0
 for seeds in fuzz/corpus/*/; do
   target=$(basename "$seeds")
