@@ -7,18 +7,8 @@
 #include <cstdint>
 #include <string>
 
+#include "fuzz/camera_identity_check.h"
 #include "matching/image_decode.h"
-
-namespace {
-
-bool PrintableAscii(const std::string& text) {
-  for (const char c : text) {
-    if (c < 0x20 || c >= 0x7F) return false;
-  }
-  return true;
-}
-
-}  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   // The image size scales the focal length; the first four bytes choose it
@@ -28,7 +18,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   const int width = data[0] << 8 | data[1];
   const int height = data[2] << 8 | data[3];
   const flysfm::ExifFields fields = flysfm::ReadExif(data + 4, size - 4, width, height);
-  if (fields.camera_identity.size() > 4 * 41 + 32 || !PrintableAscii(fields.camera_identity)) {
+  if (!PlausibleCameraIdentity(fields.camera_identity)) {
     __builtin_trap();
   }
   if (fields.focal_length_px) {

@@ -9,6 +9,7 @@
 
 #include <opencv2/core.hpp>
 
+#include "fuzz/camera_identity_check.h"
 #include "matching/image_decode.h"
 
 namespace {
@@ -16,13 +17,6 @@ namespace {
 // Far below the default 200 MP: a fuzzed header claiming the maximum still
 // decodes within the fuzzer's memory limit (4 MP of BGR is 12 MB).
 constexpr double kMaxImagePixels = 4e6;
-
-bool PrintableAscii(const std::string& text) {
-  for (const char c : text) {
-    if (c < 0x20 || c >= 0x7F) return false;
-  }
-  return true;
-}
 
 }  // namespace
 
@@ -46,8 +40,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
                   claimed->height != std::uint32_t(image.rows))) {
     __builtin_trap();
   }
-  // Four names of at most 40 characters, their separators and "%.1f mm".
-  if (decoded.camera_identity.size() > 4 * 41 + 32 || !PrintableAscii(decoded.camera_identity)) {
+  if (!PlausibleCameraIdentity(decoded.camera_identity)) {
     __builtin_trap();
   }
   if (decoded.exif_focal_length_px && !(std::isfinite(*decoded.exif_focal_length_px) &&
