@@ -238,22 +238,20 @@ DecodedImage DecodeImageBytes(const std::uint8_t* data, std::size_t size,
     return Failure("neither JPEG nor PNG (" + std::to_string(size) +
                    " bytes); only those two are decoded");
   }
-  {
-    const std::optional<ImageSize> claimed = ReadImageSize(data, size);
-    if (!claimed) {
-      return Failure(jpeg ? "JPEG without a readable frame header (SOF) before its data"
-                          : "PNG without a readable IHDR chunk");
-    }
-    const double pixels = double(claimed->width) * double(claimed->height);
-    if (pixels > options.max_image_pixels) {
-      char message[160];
-      std::snprintf(message, sizeof(message),
-                    "the header claims %u x %u pixels (%.4g MP), above max_image_pixels "
-                    "(%.4g MP); not decoded",
-                    claimed->width, claimed->height, pixels / 1e6,
-                    options.max_image_pixels / 1e6);
-      return Failure(message);
-    }
+  const std::optional<ImageSize> claimed = ReadImageSize(data, size);
+  if (!claimed) {
+    return Failure(jpeg ? "JPEG without a readable frame header (SOF) before its data"
+                        : "PNG without a readable IHDR chunk");
+  }
+  const double pixels = double(claimed->width) * double(claimed->height);
+  if (pixels > options.max_image_pixels) {
+    char message[160];
+    std::snprintf(message, sizeof(message),
+                  "the header claims %u x %u pixels (%.4g MP), above max_image_pixels "
+                  "(%.4g MP); not decoded",
+                  claimed->width, claimed->height, pixels / 1e6,
+                  options.max_image_pixels / 1e6);
+    return Failure(message);
   }
   cv::Mat decoded;
   try {
