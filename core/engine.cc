@@ -170,6 +170,7 @@ std::vector<ImageResult> Engine::AddImage(PreparedFrame prepared) {
         CameraFor(prepared),
         keypoints);
     lsm_images_.Add(image_id, prepared.grey);
+    image_files_[image_id] = prepared.frame.path;
     results[0].image_id = image_id;
     results[0].num_features = prepared.features.size();
   }

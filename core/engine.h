@@ -6,9 +6,13 @@
 // registrar, triangulator, pending pool), as COLMAP splits its incremental
 // mapper. Single-threaded and deterministic for a given input order.
 
+#include <filesystem>
+#include <functional>
+#include <istream>
 #include <map>
 #include <memory>
 #include <optional>
+#include <ostream>
 #include <string>
 #include <tuple>
 #include <unordered_map>
@@ -123,6 +127,9 @@ class Engine {
   // Throws std::invalid_argument naming a bad option or camera.
   explicit Engine(const Options& options, std::optional<Camera> camera = std::nullopt,
                   std::shared_ptr<const RetrievalModel> retrieval_model = nullptr);
+  // Its steps hold pointers to its model and stores.
+  Engine(const Engine&) = delete;
+  Engine& operator=(const Engine&) = delete;
 
   // Decoding and feature extraction with `options`; thread-safe, so it may
   // run on another thread than the engine's.
@@ -138,6 +145,25 @@ class Engine {
   // End of a batch: pending images get a last try, then the optional global
   // BA. Returns results for images registered by the last try.
   std::vector<ImageResult> Finish();
+
+  // Checkpointing (docs/engine.md, "Resume"). The state splits into what
+  // an image fixes once and for all, written once: its record (name, file,
+  // features, verified matches with the images before it), complete when
+  // AddImage returns, and its LSM windows, once it keeps only those
+  // (lsm_images().WriteWindows); and a snapshot of the rest, whose size
+  // grows with the model. Restore continues the same model on an engine made with the
+  // same camera and retrieval as the checkpointed one, before any image.
+  void WriteImageRecord(image_t image_id, std::ostream& out) const;
+  void WriteSnapshot(std::ostream& out) const;
+  // `open_record` and `open_windows` give an image's written record and
+  // windows (nullptr: not written; a missing record is an error, missing
+  // windows leave the image out of LSM). Whole images LSM still searches
+  // are decoded again from their files. Throws std::runtime_error, naming
+  // the problem, on a truncated, inconsistent or mismatched checkpoint;
+  // the engine is unusable then.
+  using CheckpointOpener = std::function<std::unique_ptr<std::istream>(image_t)>;
+  void Restore(std::istream& snapshot, const CheckpointOpener& open_record,
+               const CheckpointOpener& open_windows);
 
   const Options& options() const { return options_; }
   const Reconstruction& reconstruction() const { return reconstruction_; }
@@ -187,8 +213,10 @@ class Engine {
   Registrar registrar_;
   Triangulator triangulator_;
   PendingPool pending_;
-  // What matching and colouring need of each image seen.
+  // What matching and colouring need of each image seen, and the file it
+  // came from (empty for bytes from elsewhere).
   std::unordered_map<image_t, FeatureSet> features_;
+  std::unordered_map<image_t, std::filesystem::path> image_files_;
   std::map<std::tuple<int, int, std::string>, camera_t> camera_by_identity_;
   bool initialized_ = false;
   int num_rejected_ = 0;

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <stdexcept>
 
+#include "geometry/binary_io.h"
 #include "geometry/triangulation.h"
 
 namespace flysfm {
@@ -77,6 +78,24 @@ void Initializer::Discard(const InitialPair& pair) {
                                        candidate.image_id2 == pair.image_id2;
                               }),
                pairs_.end());
+}
+
+void Initializer::Write(std::ostream& out) const {
+  WriteCount(out, pairs_.size());
+  for (const Candidate& pair : pairs_) {
+    WriteValue(out, pair.image_id1);
+    WriteValue(out, pair.image_id2);
+    WriteRigid3d(out, pair.cam2_from_cam1);
+  }
+}
+
+void Initializer::Read(std::istream& in) {
+  pairs_.resize(ReadCount(in, "initial pairs", std::size_t(1) << 24));
+  for (Candidate& pair : pairs_) {
+    pair.image_id1 = ReadValue<image_t>(in, "initial pair");
+    pair.image_id2 = ReadValue<image_t>(in, "initial pair");
+    pair.cam2_from_cam1 = ReadRigid3d(in, "initial pair pose");
+  }
 }
 
 }  // namespace flysfm

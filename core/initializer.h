@@ -5,6 +5,8 @@
 // is the one whose verified matches triangulate into the most points seen
 // under a good angle.
 
+#include <istream>
+#include <ostream>
 #include <vector>
 
 #include "core/reconstruction.h"
@@ -61,6 +63,11 @@ class Initializer {
   void Discard(const InitialPair& pair);
   // The model exists: nothing to remember any more.
   void Clear() { pairs_.clear(); }
+
+  // The remembered pairs, in the engine's checkpoint; Read throws
+  // std::runtime_error on a truncated stream.
+  void Write(std::ostream& out) const;
+  void Read(std::istream& in);
 
  private:
   struct Candidate {

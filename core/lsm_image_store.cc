@@ -7,6 +7,9 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "geometry/binary_io.h"
+#include "geometry/check.h"
+
 namespace flysfm {
 namespace {
 
@@ -179,6 +182,86 @@ std::size_t LsmImageStore::whole_bytes() const {
   }
   for (const LsmImage& level : search_pyramid_) bytes += level.ByteSize();
   return bytes;
+}
+
+void LsmImageStore::WriteWindows(image_t image_id, std::ostream& out) const {
+  const Entry& entry = entries_.at(image_id);
+  FLYSFM_CHECK(!entry.whole);
+  WriteCount(out, entry.levels.size());
+  for (const Level& level : entry.levels) {
+    WriteValue(out, level.width);
+    WriteValue(out, level.height);
+    WriteVector(out, level.offsets);
+    WriteVector(out, level.tiles);
+  }
+}
+
+void LsmImageStore::WriteState(std::ostream& out) const {
+  WriteValue(out, next_arrival_);
+  const std::vector<image_t> whole = WholeImages();
+  WriteCount(out, whole.size());
+  for (const image_t image_id : whole) {
+    WriteValue(out, image_id);
+    WriteValue(out, entries_.at(image_id).arrival);
+  }
+  WriteCount(out, recency_.size());
+  for (const image_t image_id : recency_) {
+    WriteValue(out, image_id);
+    WriteValue(out, entries_.at(image_id).arrival);
+  }
+}
+
+void LsmImageStore::ReadState(std::istream& in, const GreyLoader& load_grey,
+                              const WindowsLoader& load_windows) {
+  FLYSFM_CHECK(entries_.empty());
+  next_arrival_ = ReadValue<std::uint64_t>(in, "LSM image arrivals");
+  const std::size_t num_whole = ReadCount(in, "whole LSM images", std::size_t(1) << 24);
+  for (std::size_t i = 0; i < num_whole; ++i) {
+    const auto image_id = ReadValue<image_t>(in, "whole LSM image");
+    const auto arrival = ReadValue<std::uint64_t>(in, "whole LSM image arrival");
+    cv::Mat grey = load_grey(image_id);
+    if (grey.empty()) continue;
+    Add(image_id, std::move(grey));
+    entries_.at(image_id).arrival = arrival;
+  }
+  const std::size_t num_windowed = ReadCount(in, "LSM images kept as tiles", std::size_t(1) << 24);
+  for (std::size_t i = 0; i < num_windowed; ++i) {
+    const auto image_id = ReadValue<image_t>(in, "LSM image kept as tiles");
+    const auto arrival = ReadValue<std::uint64_t>(in, "LSM image arrival");
+    const std::unique_ptr<std::istream> windows = load_windows(image_id);
+    if (!windows) continue;
+    Entry entry;
+    entry.arrival = arrival;
+    entry.whole = false;
+    entry.levels.resize(ReadCount(*windows, "LSM levels", 8));
+    if (int(entry.levels.size()) != options_.num_pyramid_levels) continue;
+    for (Level& level : entry.levels) {
+      level.width = ReadValue<int>(*windows, "LSM level width");
+      level.height = ReadValue<int>(*windows, "LSM level height");
+      level.offsets = ReadVector<std::int64_t>(*windows, "LSM tile offsets");
+      level.tiles = ReadVector<std::uint8_t>(*windows, "LSM tiles", std::size_t(1) << 32);
+      if (level.width <= 0 || level.height <= 0) {
+        throw std::runtime_error("corrupt LSM windows: bad level size");
+      }
+      level.tiles_x = (level.width + kTile - 1) / kTile;
+      const std::size_t tiles_y = (level.height + kTile - 1) / kTile;
+      if (level.offsets.size() != std::size_t(level.tiles_x) * tiles_y) {
+        throw std::runtime_error("corrupt LSM windows: tile table of the wrong size");
+      }
+      for (const std::int64_t offset : level.offsets) {
+        if (offset == -1) continue;
+        if (offset < 0 || offset % (kTile * kTile) != 0 ||
+            offset + kTile * kTile > std::int64_t(level.tiles.size())) {
+          throw std::runtime_error("corrupt LSM windows: tile outside the data");
+        }
+      }
+      entry.bytes += level.tiles.size() + level.offsets.size() * sizeof(std::int64_t);
+    }
+    window_bytes_ += entry.bytes;
+    recency_.push_back(image_id);
+    entry.recency = std::prev(recency_.end());
+    entries_[image_id] = std::move(entry);
+  }
 }
 
 }  // namespace flysfm

@@ -16,7 +16,11 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <functional>
+#include <istream>
 #include <list>
+#include <memory>
+#include <ostream>
 #include <unordered_map>
 #include <vector>
 
@@ -83,6 +87,21 @@ class LsmImageStore {
   // and the search pyramid).
   std::size_t window_bytes() const { return window_bytes_; }
   std::size_t whole_bytes() const;
+
+  // The engine's checkpoint. An image's tiles never change once kept, so
+  // they are written once, on their own (WriteWindows, for an image kept as
+  // tiles); the state is which images are kept, in which order.
+  void WriteWindows(image_t image_id, std::ostream& out) const;
+  void WriteState(std::ostream& out) const;
+  // Restores a written state into an empty store. `load_grey` gives a whole
+  // image's grey pixels again (decoded from its file), `load_windows` an
+  // image's written tiles; an image either cannot give (empty, nullptr) is
+  // kept no more, as if the budget had dropped it. Throws
+  // std::runtime_error on a truncated or inconsistent stream.
+  using GreyLoader = std::function<cv::Mat(image_t)>;
+  using WindowsLoader = std::function<std::unique_ptr<std::istream>(image_t)>;
+  void ReadState(std::istream& in, const GreyLoader& load_grey,
+                 const WindowsLoader& load_windows);
 
  private:
   struct Level {

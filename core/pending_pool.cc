@@ -2,6 +2,8 @@
 
 #include <algorithm>
 
+#include "geometry/binary_io.h"
+
 namespace flysfm {
 
 void PendingPool::Remove(image_t image_id) {
@@ -33,6 +35,12 @@ std::vector<image_t> PendingPool::Images() const {
   ids.reserve(waiting_.size());
   for (const Waiting& waiting : waiting_) ids.push_back(waiting.image_id);
   return ids;
+}
+
+void PendingPool::Write(std::ostream& out) const { WriteVector(out, waiting_); }
+
+void PendingPool::Read(std::istream& in) {
+  waiting_ = ReadVector<Waiting>(in, "waiting images", std::size_t(1) << 24);
 }
 
 }  // namespace flysfm

@@ -6,6 +6,8 @@
 // leaves the pool but by registering.
 
 #include <functional>
+#include <istream>
+#include <ostream>
 #include <vector>
 
 #include "geometry/types.h"
@@ -29,6 +31,11 @@ class PendingPool {
   image_t NextDue(const NeighbourCount& count) const;
 
   std::vector<image_t> Images() const;
+
+  // The engine's checkpoint; Read throws std::runtime_error on a truncated
+  // stream.
+  void Write(std::ostream& out) const;
+  void Read(std::istream& in);
   bool empty() const { return waiting_.empty(); }
 
  private:

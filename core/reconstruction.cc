@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 
+#include "geometry/binary_io.h"
 #include "geometry/check.h"
 
 namespace flysfm {
@@ -226,6 +227,130 @@ void Reconstruction::Transform(const Sim3d& new_from_old) {
     }
   }
   for (auto& [id, point] : points3D_) point.xyz = new_from_old * point.xyz;
+}
+
+namespace {
+
+constexpr char kReconstructionMagic[9] = "FSMODEL1";
+constexpr std::uint32_t kReconstructionVersion = 1;
+
+struct StoredPoint2D {
+  double x;
+  double y;
+};
+
+[[noreturn]] void Corrupt(const std::string& what) {
+  throw std::runtime_error("corrupt model in the checkpoint: " + what);
+}
+
+}  // namespace
+
+void Reconstruction::Write(std::ostream& out) const {
+  WriteHeader(out, kReconstructionMagic, kReconstructionVersion);
+  WriteCount(out, cameras_.size());
+  for (const auto& [camera_id, camera] : cameras_) {
+    WriteValue(out, camera_id);
+    WriteValue(out, int(camera.model_id));
+    WriteValue(out, camera.width);
+    WriteValue(out, camera.height);
+    WriteVector(out, camera.params);
+  }
+  WriteCount(out, images_.size());
+  std::vector<StoredPoint2D> xy;
+  for (const auto& [image_id, image] : images_) {
+    WriteValue(out, image_id);
+    WriteValue(out, image.camera_id);
+    WriteString(out, image.name);
+    WriteValue(out, std::uint8_t(image.IsRegistered()));
+    if (image.IsRegistered()) WriteRigid3d(out, *image.cam_from_world);
+    xy.clear();
+    for (const Point2D& point2D : image.points2D) xy.push_back({point2D.xy.x(), point2D.xy.y()});
+    WriteVector(out, xy);
+  }
+  WriteVector(out, registered_);
+  WriteValue(out, next_point3D_id_);
+  WriteCount(out, points3D_.size());
+  for (const auto& [point3D_id, point] : points3D_) {
+    WriteValue(out, point3D_id);
+    WriteValue(out, std::array<double, 3>{point.xyz.x(), point.xyz.y(), point.xyz.z()});
+    WriteValue(out, point.color);
+    WriteValue(out, point.error);
+    WriteVector(out, point.track);
+  }
+}
+
+Reconstruction Reconstruction::Read(std::istream& in) {
+  ReadHeader(in, kReconstructionMagic, kReconstructionVersion);
+  Reconstruction model;
+  const std::size_t num_cameras = ReadCount(in, "cameras", 1 << 20);
+  for (std::size_t i = 0; i < num_cameras; ++i) {
+    const auto camera_id = ReadValue<camera_t>(in, "camera id");
+    Camera camera;
+    camera.model_id = CameraModelId(ReadValue<int>(in, "camera model"));
+    camera.width = ReadValue<int>(in, "camera width");
+    camera.height = ReadValue<int>(in, "camera height");
+    camera.params = ReadVector<double>(in, "camera parameters", 64);
+    if (!camera.IsValid() || !model.cameras_.emplace(camera_id, camera).second) {
+      Corrupt("camera " + std::to_string(camera_id));
+    }
+  }
+  const std::size_t num_images = ReadCount(in, "images", 1 << 24);
+  for (std::size_t i = 0; i < num_images; ++i) {
+    const auto image_id = ReadValue<image_t>(in, "image id");
+    Image& image = model.images_[image_id];
+    if (image.image_id != kInvalidImageId || image_id == kInvalidImageId) {
+      Corrupt("image id " + std::to_string(image_id));
+    }
+    image.image_id = image_id;
+    image.camera_id = ReadValue<camera_t>(in, "image camera");
+    if (!model.ExistsCamera(image.camera_id)) {
+      Corrupt("camera of image " + std::to_string(image_id));
+    }
+    image.name = ReadString(in, "image name");
+    if (ReadValue<std::uint8_t>(in, "image registration")) {
+      image.cam_from_world = ReadRigid3d(in, "image pose");
+    }
+    for (const StoredPoint2D& xy : ReadVector<StoredPoint2D>(in, "keypoints")) {
+      image.points2D.push_back({Eigen::Vector2d(xy.x, xy.y), kInvalidPoint3DId});
+    }
+  }
+  model.registered_ = ReadVector<image_t>(in, "registered images", num_images);
+  std::size_t num_registered = 0;
+  for (const auto& [image_id, image] : model.images_) num_registered += image.IsRegistered();
+  for (const image_t image_id : model.registered_) {
+    if (!model.ExistsImage(image_id) || !model.image(image_id).IsRegistered()) {
+      Corrupt("registered image " + std::to_string(image_id));
+    }
+  }
+  if (num_registered != model.registered_.size()) Corrupt("the registered images' order");
+  model.next_point3D_id_ = ReadValue<point3D_t>(in, "next point id");
+  const std::size_t num_points = ReadCount(in, "points", std::size_t(1) << 30);
+  model.points3D_.reserve(num_points);
+  for (std::size_t i = 0; i < num_points; ++i) {
+    const auto point3D_id = ReadValue<point3D_t>(in, "point id");
+    if (point3D_id == kInvalidPoint3DId || point3D_id >= model.next_point3D_id_ ||
+        model.ExistsPoint3D(point3D_id)) {
+      Corrupt("point id " + std::to_string(point3D_id));
+    }
+    Point3D& point = model.points3D_[point3D_id];
+    const auto xyz = ReadValue<std::array<double, 3>>(in, "point position");
+    point.xyz = Eigen::Vector3d(xyz[0], xyz[1], xyz[2]);
+    point.color = ReadValue<std::array<std::uint8_t, 3>>(in, "point colour");
+    point.error = ReadValue<double>(in, "point error");
+    point.track = ReadVector<TrackElement>(in, "track", num_images);
+    if (point.track.size() < 2) Corrupt("track of point " + std::to_string(point3D_id));
+    for (const TrackElement& element : point.track) {
+      const auto image = model.images_.find(element.image_id);
+      if (image == model.images_.end() || !image->second.IsRegistered() ||
+          element.point2D_idx >= image->second.points2D.size() ||
+          image->second.points2D[element.point2D_idx].HasPoint3D()) {
+        Corrupt("track of point " + std::to_string(point3D_id));
+      }
+      image->second.points2D[element.point2D_idx].point3D_id = point3D_id;
+      ++image->second.num_points3D;
+    }
+  }
+  return model;
 }
 
 }  // namespace flysfm

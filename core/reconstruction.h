@@ -1,6 +1,8 @@
 #pragma once
 
+#include <istream>
 #include <map>
+#include <ostream>
 #include <string>
 #include <unordered_map>
 #include <vector>
@@ -88,6 +90,12 @@ class Reconstruction {
 
   // Maps the whole model (poses and points) by a similarity.
   void Transform(const Sim3d& new_from_old);
+
+  // The whole model, its ids and order of registration included, in the
+  // engine's checkpoint format. Read throws std::runtime_error on a
+  // truncated or inconsistent stream.
+  void Write(std::ostream& out) const;
+  static Reconstruction Read(std::istream& in);
 
  private:
   std::map<camera_t, Camera> cameras_;

@@ -7,6 +7,7 @@
 #include <opencv2/features2d.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "geometry/binary_io.h"
 #include "geometry/check.h"
 
 namespace flysfm {
@@ -93,6 +94,27 @@ FeatureSet ExtractFeatures(const cv::Mat& image, cv::Mat grey, const SiftOptions
     std::copy_n(cv_descriptors.ptr<float>(i), 128, features.descriptors.row(i).data());
   }
   RootSiftInPlace(&features.descriptors);
+  return features;
+}
+
+void WriteFeatureSet(std::ostream& out, const FeatureSet& features) {
+  WriteValue(out, features.width);
+  WriteValue(out, features.height);
+  WriteVector(out, features.keypoints);
+  out.write(reinterpret_cast<const char*>(features.descriptors.data()),
+            std::streamsize(sizeof(float) * features.descriptors.size()));
+}
+
+FeatureSet ReadFeatureSet(std::istream& in) {
+  FeatureSet features;
+  features.width = ReadValue<int>(in, "feature image width");
+  features.height = ReadValue<int>(in, "feature image height");
+  features.keypoints = ReadVector<Keypoint>(in, "keypoints", std::size_t(1) << 24);
+  features.descriptors.resize(features.size(), 128);
+  if (!in.read(reinterpret_cast<char*>(features.descriptors.data()),
+               std::streamsize(sizeof(float) * features.descriptors.size()))) {
+    throw std::runtime_error("file truncated while reading descriptors");
+  }
   return features;
 }
 

@@ -4,6 +4,8 @@
 // RootSIFT descriptors.
 
 #include <cstdint>
+#include <istream>
+#include <ostream>
 #include <string>
 #include <vector>
 
@@ -75,6 +77,11 @@ FeatureSet ExtractFeatures(const cv::Mat& image, const SiftOptions& options);
 // The same when the caller has the image in grey already (the engine keeps it
 // for LSM): `grey` is `image` converted to 8-bit grey, or `image` itself.
 FeatureSet ExtractFeatures(const cv::Mat& image, cv::Mat grey, const SiftOptions& options);
+
+// A feature set in the engine's checkpoint format. Read throws
+// std::runtime_error on a truncated or inconsistent stream.
+void WriteFeatureSet(std::ostream& out, const FeatureSet& features);
+FeatureSet ReadFeatureSet(std::istream& in);
 
 // In place: L1-normalise each row, then take the element-wise square root
 // (Arandjelovic & Zisserman 2012), so the Euclidean distance of RootSIFT

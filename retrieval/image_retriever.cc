@@ -5,6 +5,7 @@
 #include <string>
 
 #include "geometry/check.h"
+#include "retrieval/binary_io.h"
 
 namespace flysfm {
 
@@ -142,6 +143,84 @@ void ImageRetriever::RebuildIndex(std::vector<image_t> ids,
     index_ = std::make_unique<ExhaustiveIndex>(dim);
   }
   for (int k = 0; k < n; ++k) index_->Insert(ids[k], descriptors[k]);
+}
+
+void ImageRetriever::Write(std::ostream& out) const {
+  WriteValue(out, std::uint8_t(bootstrapped_));
+  for (const int value : {generation_, int(frozen_), next_training_at_, next_tree_at_,
+                          num_model_trainings_, num_tree_builds_}) {
+    WriteValue(out, value);
+  }
+  WriteVector(out, retained_ids_);
+  if (bootstrapped_) {
+    const auto* vlad = dynamic_cast<const VladExtractor*>(extractor_.get());
+    WriteValue(out, std::uint8_t(vlad != nullptr));
+    if (vlad) vlad->Write(out);
+    WriteValue(out, std::uint8_t(tree_ != nullptr));
+    if (tree_) tree_->Write(out);
+  }
+  WriteValue(out, std::uint8_t(index_ != nullptr));
+  if (!index_) return;
+  RowMatrixXf descriptors(index_->Size(), index_->Dim());
+  for (int slot = 0; slot < index_->Size(); ++slot) {
+    descriptors.row(slot) = index_->DescriptorOf(index_->ImageIds()[slot]).transpose();
+  }
+  WriteVector(out, index_->ImageIds());
+  WriteMatrix(out, descriptors);
+}
+
+void ImageRetriever::Read(std::istream& in,
+                          const std::function<const FeatureSet&(image_t)>& features_of) {
+  FLYSFM_CHECK(!index_ || index_->Size() == 0);
+  const bool bootstrapped = ReadValue<std::uint8_t>(in, "retrieval mode") != 0;
+  if (bootstrapped != bootstrapped_) {
+    throw std::runtime_error(bootstrapped
+                                 ? "the checkpoint's retrieval learnt from the session's "
+                                   "images: resume without a retrieval model"
+                                 : "the checkpoint's retrieval used a trained model: resume "
+                                   "with the same --retrieval-model");
+  }
+  generation_ = ReadValue<int>(in, "retrieval generation");
+  frozen_ = ReadValue<int>(in, "retrieval state") != 0;
+  next_training_at_ = ReadValue<int>(in, "retrieval state");
+  next_tree_at_ = ReadValue<int>(in, "retrieval state");
+  num_model_trainings_ = ReadValue<int>(in, "retrieval state");
+  num_tree_builds_ = ReadValue<int>(in, "retrieval state");
+  retained_ids_ = ReadVector<image_t>(in, "retained images", std::size_t(1) << 24);
+  retained_features_.clear();
+  if (!frozen_) {
+    for (const image_t image_id : retained_ids_) retained_features_.push_back(features_of(image_id));
+  }
+  if (bootstrapped_) {
+    extractor_.reset();
+    tree_.reset();
+    if (ReadValue<std::uint8_t>(in, "retrieval model")) {
+      extractor_ = std::make_shared<VladExtractor>(VladExtractor::Read(in));
+    }
+    if (ReadValue<std::uint8_t>(in, "retrieval tree")) {
+      tree_ = std::make_shared<const VocabularyTree>(VocabularyTree::Read(in));
+    }
+  }
+  index_.reset();
+  if (!ReadValue<std::uint8_t>(in, "retrieval index")) {
+    // Only a bootstrapped retriever that has not learnt yet has no index.
+    if (!bootstrapped_ || extractor_) throw std::runtime_error("checkpoint without its index");
+    return;
+  }
+  const std::vector<image_t> ids = ReadVector<image_t>(in, "indexed images", std::size_t(1) << 24);
+  const RowMatrixXf descriptors = ReadMatrix(in, "global descriptors");
+  if (descriptors.rows() != std::int64_t(ids.size()) || descriptors.cols() == 0 || !extractor_ ||
+      descriptors.cols() != extractor_->Dim() || (tree_ && tree_->Dim() != extractor_->Dim())) {
+    throw std::runtime_error("corrupt retrieval index in the checkpoint");
+  }
+  if (tree_) {
+    index_ = std::make_unique<VocabularyTreeIndex>(tree_, options_.tree_index);
+  } else {
+    index_ = std::make_unique<ExhaustiveIndex>(int(descriptors.cols()));
+  }
+  for (std::size_t slot = 0; slot < ids.size(); ++slot) {
+    index_->Insert(ids[slot], descriptors.row(slot).transpose());
+  }
 }
 
 }  // namespace flysfm

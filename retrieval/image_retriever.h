@@ -15,7 +15,10 @@
 //   doubles. Each retraining costs O(n), at counts growing geometrically, so
 //   the cost per image is amortised O(1).
 
+#include <functional>
+#include <istream>
 #include <memory>
+#include <ostream>
 #include <vector>
 
 #include <Eigen/Core>
@@ -101,6 +104,16 @@ class ImageRetriever {
   int num_model_trainings() const { return num_model_trainings_; }
   int num_tree_builds() const { return num_tree_builds_; }
   bool uses_tree() const { return tree_ != nullptr; }
+
+  // The engine's checkpoint: what was learnt and inserted. A trained
+  // retriever writes its index only (its model is read from its file
+  // again). Read restores into a retriever made the same way (bootstrapped
+  // or trained, nothing inserted yet); `features_of` gives the features of
+  // the images a bootstrapped model still retains for its next training.
+  // Throws std::runtime_error on a truncated or inconsistent stream, or on
+  // a checkpoint made the other way.
+  void Write(std::ostream& out) const;
+  void Read(std::istream& in, const std::function<const FeatureSet&(image_t)>& features_of);
 
  private:
   void Retrain();

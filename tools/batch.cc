@@ -32,6 +32,10 @@ void AddBatchCommand(CLI::App& app) {
                       "Hand images to the engine this many seconds apart, like a camera")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
+  command->add_flag("--resume", flags->engine.resume,
+                    "Continue the model checkpointed in --out: an interrupted run, or a "
+                    "finished one to extend with new images (images it holds, by name, are "
+                    "skipped); without it a new model starts");
   command->add_option("--max-images", flags->max_images,
                       "Use only the first N images of the input (0: all)")
       ->check(CLI::NonNegativeNumber)

@@ -6,8 +6,10 @@
 #include <iostream>
 #include <map>
 #include <optional>
+#include <unordered_set>
 
 #include "core/ablation.h"
+#include "io/run/checkpoint.h"
 #include "io/sources/prepared_source.h"
 #include "io/sources/quarantine.h"
 #include "retrieval/retrieval_model.h"
@@ -99,6 +101,26 @@ int RunEngine(ImageSource* source, Engine* engine, const EngineFlags& flags,
               const RunEngineOptions& options) {
   RunWriter writer(flags.out);
   const auto start = std::chrono::steady_clock::now();
+  Checkpointer checkpointer(std::filesystem::path(flags.out) / "state", Checkpointer::Options());
+  std::unordered_set<std::string> in_model;
+  if (flags.resume && checkpointer.Exists()) {
+    try {
+      checkpointer.Restore(engine);
+    } catch (const std::exception& e) {
+      throw std::runtime_error("cannot resume from " + checkpointer.dir().string() + ": " +
+                               e.what() + "; move that folder away to start the model over");
+    }
+    for (const auto& [image_id, image] : engine->reconstruction().images()) {
+      in_model.insert(image.name);
+    }
+    std::printf("resumed: %zu images (%zu registered, %zu points) from %s in %.1f s\n",
+                in_model.size(), engine->reconstruction().NumRegisteredImages(),
+                engine->reconstruction().NumPoints3D(), checkpointer.dir().c_str(),
+                std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+    std::fflush(stdout);
+  } else {
+    checkpointer.Clear();
+  }
   auto last_refresh = start;
   const auto seconds_since = [](std::chrono::steady_clock::time_point t) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
@@ -106,6 +128,21 @@ int RunEngine(ImageSource* source, Engine* engine, const EngineFlags& flags,
   std::vector<ImageResult> all;
   RunCounts counts;
   counts.skipped_entries = options.skipped_entries;
+  counts.resumed_images = int(in_model.size());
+  double engine_ms = 0;
+  // A failed checkpoint write (a full disk) is counted like any failed
+  // output; the next one writes what is still missing.
+  const auto checkpoint = [&](double call_ms, bool final) {
+    engine_ms += call_ms;
+    try {
+      checkpointer.Update(*engine, call_ms, final);
+    } catch (const std::exception& e) {
+      ++counts.write_errors;
+      std::fprintf(stderr, "cannot write the checkpoint: %s\n", e.what());
+    }
+    const Checkpointer::Summary& summary = checkpointer.summary();
+    counts.checkpoint_ms = summary.records_ms + summary.snapshots_ms;
+  };
   // A pending image's later result is timed from its own arrival.
   std::map<std::string, std::chrono::steady_clock::time_point> arrivals;
   std::vector<double> delays_ms;
@@ -125,11 +162,12 @@ int RunEngine(ImageSource* source, Engine* engine, const EngineFlags& flags,
   // Declared before the prepared source, so that they outlive the prefetch.
   Quarantine quarantine(std::filesystem::path(flags.out) / "quarantine.tsv",
                         flags.retry_quarantined);
-  QuarantineFilterSource filtered(source, &quarantine);
+  QuarantineFilterSource filtered(source, &quarantine, &in_model);
   // A failed write (a full disk, a folder made read-only) loses no image:
   // the engine's model is whole, and the next write tries again.
   const auto write_outputs = [&](bool final) {
     counts.quarantined = filtered.num_skipped();
+    counts.in_model = filtered.num_in_model();
     try {
       if (!writer.MayReplaceOutputs(engine->reconstruction(), final)) return true;
       writer.WriteModel(engine->reconstruction());
@@ -167,8 +205,10 @@ int RunEngine(ImageSource* source, Engine* engine, const EngineFlags& flags,
       arrivals[name] = frame->frame.arrival;
       quarantine.BeginEngine(name);
       std::vector<ImageResult> results;
+      const auto call_start = std::chrono::steady_clock::now();
       const std::optional<std::string> error =
           ErrorOf([&] { results = add_image(engine, std::move(*frame)); });
+      const double call_ms = 1000 * seconds_since(call_start);
       if (!error) {
         quarantine.Done(name);
       } else {
@@ -183,17 +223,20 @@ int RunEngine(ImageSource* source, Engine* engine, const EngineFlags& flags,
         results.push_back(failed);
       }
       report(results);
+      checkpoint(call_ms, /*final=*/false);
       if (seconds_since(last_refresh) >= flags.refresh_seconds) {
         write_outputs(/*final=*/false);
         last_refresh = std::chrono::steady_clock::now();
       }
     }
   }
+  const auto finish_start = std::chrono::steady_clock::now();
   if (const std::optional<std::string> error = ErrorOf([&] { report(engine->Finish()); })) {
     ++counts.engine_errors;
     std::fprintf(stderr, "engine error while finishing: %s; the model is written as it is\n",
                  error->c_str());
   }
+  checkpoint(1000 * seconds_since(finish_start), /*final=*/true);
   const bool written = write_outputs(/*final=*/true);
   const Reconstruction& model = engine->reconstruction();
   std::printf("done: %d images in, %zu registered, %d rejected, %zu pending; %zu points, "
@@ -208,6 +251,14 @@ int RunEngine(ImageSource* source, Engine* engine, const EngineFlags& flags,
                 counts.quarantined, counts.engine_errors, counts.write_errors,
                 counts.skipped_entries);
   }
+  const Checkpointer::Summary& saved = checkpointer.summary();
+  std::printf("checkpoint: %.1f ms per image (%.1f %% of the engine's time), %d snapshots "
+              "(last %.0f ms, %.1f MB), %.1f MB written; %d images skipped as already in the "
+              "model\n",
+              counts.images_in > 0 ? counts.checkpoint_ms / counts.images_in : 0.0,
+              engine_ms > 0 ? 100 * counts.checkpoint_ms / engine_ms : 0.0, saved.num_snapshots,
+              saved.last_snapshot_ms, saved.last_snapshot_bytes / 1e6, saved.bytes / 1e6,
+              counts.in_model);
   if (options.live && !delays_ms.empty()) {
     std::nth_element(delays_ms.begin(), delays_ms.begin() + delays_ms.size() / 2,
                      delays_ms.end());

@@ -25,6 +25,9 @@ struct EngineFlags {
   std::string out;
   double refresh_seconds = 2.0;
   bool retry_quarantined = false;
+  // Continue the model checkpointed in OUT/state, if any; else a new model
+  // (and the checkpoint starts over).
+  bool resume = false;
   // DecodeOptions::max_image_pixels, in megapixels.
   double max_megapixels = DecodeOptions().max_image_pixels / 1e6;
 
@@ -46,8 +49,11 @@ struct RunEngineOptions {
 };
 
 // Runs every frame of `source` through the engine, printing one line per
-// image result and keeping `out` current; ends with Finish() and the final
-// model. Images quarantined in OUT/quarantine.tsv are skipped; an exception
+// image result and keeping `out` current, its checkpoint (OUT/state)
+// included; ends with Finish() and the final model. With flags.resume the
+// engine first continues the checkpointed model, and frames it holds are
+// skipped (a checkpoint that cannot be read: std::runtime_error). Images
+// quarantined in OUT/quarantine.tsv are skipped; an exception
 // on one image is reported naming it, counted, and the image quarantined;
 // the run goes on. A failed output write is reported and counted; the next
 // write retries. Returns the process exit code: 1 when the final outputs

@@ -3,7 +3,8 @@
 // SIGTERM ends the run cleanly (what was received is processed, the outputs
 // are written whole); a second signal quits at once. A run restarted on the
 // same --out after a crash first re-feeds the CAMFI shots already in
-// DIR/images, or the watched files listed in DIR/watched.tsv (docs/live.md).
+// DIR/images, or the watched files listed in DIR/watched.tsv, skipping
+// those the checkpointed model in DIR/state holds already (docs/live.md).
 
 #include <pthread.h>
 #include <signal.h>
@@ -85,6 +86,8 @@ void AddLiveCommand(CLI::App& app) {
   auto flags = std::make_shared<Flags>();
   // After every image: the model in --out is always the latest.
   flags->engine.refresh_seconds = 0;
+  // A restart continues the model it left (a crash, Ctrl-C, another day).
+  flags->engine.resume = true;
   CLI::App* command = app.add_subcommand(
       "live", "Process images while they are being shot: from a CAMFI WiFi transmitter "
               "(or `flysfm camfi-emulator`) or from a folder something else writes into");

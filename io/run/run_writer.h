@@ -32,6 +32,9 @@ struct RunCounts {
   int engine_errors = 0;    // the engine threw on them; now quarantined
   int write_errors = 0;     // output writes that failed (the next one retries)
   int skipped_entries = 0;  // input folder entries that could not be examined
+  int resumed_images = 0;   // images the checkpointed model held at the start
+  int in_model = 0;         // frames skipped as the resumed model held them
+  double checkpoint_ms = 0; // writing the checkpoint, in all
 };
 
 class RunWriter {

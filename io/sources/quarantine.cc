@@ -153,11 +153,16 @@ void Quarantine::Fail(const std::string& name, const std::string& why) {
   reasons_[name] = why;
 }
 
-QuarantineFilterSource::QuarantineFilterSource(ImageSource* source, Quarantine* quarantine)
-    : source_(source), quarantine_(quarantine) {}
+QuarantineFilterSource::QuarantineFilterSource(ImageSource* source, Quarantine* quarantine,
+                                               const std::unordered_set<std::string>* in_model)
+    : source_(source), quarantine_(quarantine), in_model_(in_model) {}
 
 std::optional<Frame> QuarantineFilterSource::Next() {
   while (std::optional<Frame> frame = source_->Next()) {
+    if (in_model_ && in_model_->count(frame->name) > 0) {
+      ++num_in_model_;
+      continue;
+    }
     if (const std::optional<std::string> why = quarantine_->Reason(frame->name)) {
       std::cerr << "quarantine: skipping " << frame->name << " (" << *why
                 << "); --retry-quarantined gives it another try\n";

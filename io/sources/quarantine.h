@@ -28,6 +28,7 @@
 #include <optional>
 #include <set>
 #include <string>
+#include <unordered_set>
 #include <vector>
 
 #include "io/sources/image_source.h"
@@ -72,21 +73,26 @@ class Quarantine {
 };
 
 // Hands on the frames of `source` but the quarantined ones (reported on
-// stderr and counted), recording `decode` for each frame handed on: the
+// stderr and counted) and those named in `in_model` (images a resumed model
+// holds already, counted), recording `decode` for each frame handed on: the
 // source the prefetch thread reads.
 class QuarantineFilterSource : public ImageSource {
  public:
-  // Both must outlive this object.
-  QuarantineFilterSource(ImageSource* source, Quarantine* quarantine);
+  // All must outlive this object.
+  QuarantineFilterSource(ImageSource* source, Quarantine* quarantine,
+                         const std::unordered_set<std::string>* in_model = nullptr);
   std::optional<Frame> Next() override;
   void Stop() override { source_->Stop(); }
 
   int num_skipped() const { return num_skipped_; }
+  int num_in_model() const { return num_in_model_; }
 
  private:
   ImageSource* source_;
   Quarantine* quarantine_;
+  const std::unordered_set<std::string>* in_model_;
   std::atomic<int> num_skipped_{0};
+  std::atomic<int> num_in_model_{0};
 };
 
 }  // namespace flysfm

@@ -1,6 +1,10 @@
 #include "core/lsm_image_store.h"
 
+#include <algorithm>
+#include <map>
+#include <memory>
 #include <random>
+#include <sstream>
 
 #include <catch2/catch.hpp>
 #include <opencv2/core.hpp>
@@ -158,4 +162,67 @@ TEST_CASE("Older images keep only their windows, within the budget, least recent
 }
 
 }  // namespace
+}  // namespace flysfm
+
+namespace flysfm {
+
+TEST_CASE("A store restored from its checkpoint gives the same windows and keeps the same order") {
+  LsmImageStore::Options options;
+  const int width = 640, height = 480;
+  const std::vector<Eigen::Vector2d> points = RandomPoints(40, width, height, 3);
+  LsmImageStore original(options);
+  for (image_t id = 1; id <= 4; ++id) original.Add(id, Texture(width, height, id));
+  original.KeepWindows(2, points);
+  original.KeepWindows(1, points);
+
+  std::map<image_t, std::string> windows;
+  for (const image_t id : {image_t(1), image_t(2)}) {
+    std::ostringstream out;
+    original.WriteWindows(id, out);
+    windows[id] = out.str();
+  }
+  std::stringstream state;
+  original.WriteState(state);
+  LsmImageStore restored(options);
+  restored.ReadState(
+      state, [&](image_t id) { return Texture(width, height, int(id)); },
+      [&](image_t id) { return std::make_unique<std::istringstream>(windows.at(id)); });
+  CHECK(restored.WholeImages() == original.WholeImages());
+  CHECK(restored.window_bytes() == original.window_bytes());
+  for (const image_t id : {image_t(1), image_t(2), image_t(3)}) {
+    for (int level = 0; level < options.num_pyramid_levels; ++level) {
+      for (const Eigen::Vector2d& point : points) {
+        const LsmImage a = original.Window(id, level, point, options.coarse_template_reach_px);
+        const LsmImage b = restored.Window(id, level, point, options.coarse_template_reach_px);
+        REQUIRE(a.width() == b.width());
+        REQUIRE(a.height() == b.height());
+        CHECK(std::equal(a.data(), a.data() + a.width() * a.height(), b.data()));
+      }
+    }
+  }
+
+  // An image whose pixels cannot be had again is left out, as if dropped.
+  state.clear();
+  state.seekg(0);
+  LsmImageStore partial(options);
+  partial.ReadState(
+      state, [](image_t) { return cv::Mat(); },
+      [](image_t) { return std::unique_ptr<std::istream>(); });
+  CHECK(partial.WholeImages().empty());
+  CHECK_FALSE(partial.HasPixels(1));
+  CHECK(partial.window_bytes() == 0);
+
+  // A corrupt tile table is refused.
+  std::string bad = windows.at(1);
+  bad.resize(bad.size() / 3);
+  state.clear();
+  state.seekg(0);
+  LsmImageStore refused(options);
+  CHECK_THROWS_AS(
+      refused.ReadState(
+          state, [&](image_t id) { return Texture(width, height, int(id)); },
+          [&](image_t) { return std::make_unique<std::istringstream>(bad); }),
+      std::runtime_error);
+}
+
 }  // namespace flysfm

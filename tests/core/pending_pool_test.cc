@@ -1,6 +1,7 @@
 #include "core/pending_pool.h"
 
 #include <map>
+#include <sstream>
 
 #include <catch2/catch.hpp>
 
@@ -29,6 +30,21 @@ TEST_CASE("A waiting image is due when its registered neighbourhood changed sinc
   pool.ForgetTries();
   CHECK(pool.NextDue(count) == 3);
   CHECK_FALSE(pool.empty());
+}
+
+TEST_CASE("A pool restored from its checkpoint keeps its order and its tries") {
+  PendingPool pool;
+  pool.Add(4);
+  pool.Add(2);
+  pool.MarkTried(2, 5);
+  std::stringstream stream;
+  pool.Write(stream);
+  PendingPool restored;
+  restored.Read(stream);
+  CHECK(restored.Images() == std::vector<image_t>{4, 2});
+  // Image 2 saw 5 neighbours at its try: not due with 5, due with 6.
+  CHECK(restored.NextDue([](image_t id) { return id == 2 ? 5 : 0; }) == kInvalidImageId);
+  CHECK(restored.NextDue([](image_t id) { return id == 2 ? 6 : 0; }) == 2);
 }
 
 }  // namespace

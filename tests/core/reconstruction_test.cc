@@ -1,5 +1,7 @@
 #include "core/reconstruction.h"
 
+#include <sstream>
+
 #include <catch2/catch.hpp>
 
 #include "tests/testing/scene_reconstruction.h"
@@ -139,4 +141,55 @@ TEST_CASE("Deregistering an image removes its observations") {
 }
 
 }  // namespace
+}  // namespace flysfm
+
+namespace flysfm {
+
+TEST_CASE("A model written and read back is the same model; a cut or inconsistent one is refused") {
+  Fixture f;
+  Reconstruction& r = f.reconstruction;
+  // An unregistered image and a densified keypoint, as the engine has them.
+  const image_t waiting = r.AddImage("waiting.png", r.cameras().begin()->first,
+                                     {Eigen::Vector2d(1, 2), Eigen::Vector2d(3, 4)});
+  r.AddPoint2D(r.RegisteredImageIds().front(), Eigen::Vector2d(5.5, 6.5));
+  r.UpdatePointErrors();
+  std::stringstream stream;
+  r.Write(stream);
+  const Reconstruction read = Reconstruction::Read(stream);
+
+  CHECK(read.RegisteredImageIds() == r.RegisteredImageIds());
+  CHECK_FALSE(read.image(waiting).IsRegistered());
+  CHECK(read.NumPoints3D() == r.NumPoints3D());
+  CHECK(read.NumObservations() == r.NumObservations());
+  CHECK(read.MeanReprojectionError() == r.MeanReprojectionError());
+  for (const auto& [id, image] : r.images()) {
+    const Image& other = read.image(id);
+    CHECK(other.name == image.name);
+    CHECK(other.num_points3D == image.num_points3D);
+    REQUIRE(other.points2D.size() == image.points2D.size());
+    for (std::size_t i = 0; i < image.points2D.size(); ++i) {
+      CHECK(other.points2D[i].xy == image.points2D[i].xy);
+      CHECK(other.points2D[i].point3D_id == image.points2D[i].point3D_id);
+    }
+    if (image.IsRegistered()) {
+      CHECK(other.cam_from_world->translation == image.cam_from_world->translation);
+    }
+  }
+  for (const auto& [id, point] : r.points3D()) {
+    CHECK(read.point3D(id).xyz == point.xyz);
+    CHECK(read.point3D(id).error == point.error);
+    CHECK(read.point3D(id).track.size() == point.track.size());
+  }
+  // New points get the ids they would have had in the original.
+  std::istringstream again(stream.str());
+  Reconstruction copy = Reconstruction::Read(again);
+  CHECK(copy.AddPoint3D(Eigen::Vector3d::Zero(), {}) == r.AddPoint3D(Eigen::Vector3d::Zero(), {}));
+
+  const std::string bytes = stream.str();
+  for (const double fraction : {0.0, 0.2, 0.6, 0.999}) {
+    std::istringstream cut(bytes.substr(0, std::size_t(fraction * bytes.size())));
+    CHECK_THROWS_AS(Reconstruction::Read(cut), std::runtime_error);
+  }
+}
+
 }  // namespace flysfm

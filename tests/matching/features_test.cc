@@ -1,6 +1,7 @@
 #include "matching/features.h"
 
 #include <algorithm>
+#include <sstream>
 #include <stdexcept>
 #include <vector>
 
@@ -117,4 +118,28 @@ TEST_CASE("with the grey image given, extraction is the same, and a wrong grey i
 }
 
 }  // namespace
+}  // namespace flysfm
+
+namespace flysfm {
+
+TEST_CASE("a feature set written and read back is identical; a cut one is refused") {
+  const FeatureSet features = ExtractFeatures(MakeTexture(320, 240, 3), SiftOptions());
+  REQUIRE(features.size() > 0);
+  std::stringstream stream;
+  WriteFeatureSet(stream, features);
+  const FeatureSet read = ReadFeatureSet(stream);
+  CHECK(read.width == features.width);
+  CHECK(read.height == features.height);
+  REQUIRE(read.size() == features.size());
+  for (int i = 0; i < features.size(); ++i) {
+    CHECK(read.keypoints[i].x == features.keypoints[i].x);
+    CHECK(read.keypoints[i].scale == features.keypoints[i].scale);
+    CHECK(read.keypoints[i].g == features.keypoints[i].g);
+  }
+  CHECK(read.descriptors == features.descriptors);
+  const std::string bytes = stream.str();
+  std::istringstream cut(bytes.substr(0, bytes.size() - 1));
+  CHECK_THROWS_AS(ReadFeatureSet(cut), std::runtime_error);
+}
+
 }  // namespace flysfm

@@ -1,6 +1,7 @@
 #include "retrieval/image_retriever.h"
 
 #include <set>
+#include <sstream>
 #include <stdexcept>
 
 #include <catch2/catch.hpp>
@@ -104,4 +105,65 @@ TEST_CASE("trained mode uses the given model and never retrains") {
 }
 
 }  // namespace
+}  // namespace flysfm
+
+namespace flysfm {
+
+TEST_CASE("a retriever restored from its checkpoint answers and learns as the original") {
+  // Views are drawn anew at each call: both retrievers get the same ones,
+  // as the engine keeps each image's features.
+  testing::PlaceFeatures places(10, 4);
+  std::vector<FeatureSet> views;
+  for (int i = 0; i < 80; ++i) views.push_back(places.View(i % 10));
+  const auto feed = [&](int begin, int end, ImageRetriever* retriever) {
+    for (int i = begin; i < end; ++i) {
+      retriever->Insert(i, cv::Mat(), views[i], retriever->Describe(cv::Mat(), views[i]));
+    }
+  };
+  // Stopped before the model froze (features retained), after it froze with
+  // an exhaustive index, and with a tree.
+  for (const int stop : {6, 20, 40}) {
+    INFO("stopped after " << stop << " images");
+    ImageRetriever original(SmallOptions());
+    feed(0, stop, &original);
+    std::stringstream checkpoint;
+    original.Write(checkpoint);
+    ImageRetriever restored(SmallOptions());
+    restored.Read(checkpoint, [&](image_t id) -> const FeatureSet& { return views.at(id); });
+    CHECK(restored.NumImages() == original.NumImages());
+    CHECK(restored.generation() == original.generation());
+    CHECK(restored.uses_tree() == original.uses_tree());
+    // Both go on: same retrainings, same answers.
+    feed(stop, 80, &original);
+    feed(stop, 80, &restored);
+    CHECK(restored.num_model_trainings() == original.num_model_trainings());
+    CHECK(restored.num_tree_builds() == original.num_tree_builds());
+    for (image_t i = 0; i < 80; i += 7) {
+      const auto a = original.QueryInserted(i, 5);
+      const auto b = restored.QueryInserted(i, 5);
+      REQUIRE(a.size() == b.size());
+      for (std::size_t k = 0; k < a.size(); ++k) {
+        CHECK(a[k].image_id == b[k].image_id);
+        CHECK(a[k].distance == b[k].distance);
+      }
+    }
+  }
+}
+
+TEST_CASE("a retriever refuses a checkpoint of the other mode or cut short") {
+  testing::PlaceFeatures places(10, 4);
+  ImageRetriever original(SmallOptions());
+  Feed(places, 10, 20, &original);
+  std::ostringstream written;
+  original.Write(written);
+  const auto no_features = [](image_t) -> const FeatureSet& {
+    throw std::runtime_error("no features");
+  };
+  for (const double fraction : {0.0, 0.5, 0.99}) {
+    std::istringstream cut(written.str().substr(0, std::size_t(fraction * written.str().size())));
+    ImageRetriever restored(SmallOptions());
+    CHECK_THROWS_AS(restored.Read(cut, no_features), std::runtime_error);
+  }
+}
+
 }  // namespace flysfm

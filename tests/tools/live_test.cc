@@ -113,7 +113,7 @@ std::vector<std::string> ResultNames(const std::filesystem::path& output) {
   return names;
 }
 
-TEST_CASE("live --watch: after SIGKILL a restart re-feeds the files in arrival order") {
+TEST_CASE("live --watch: after SIGKILL a restart resumes, re-feeding in arrival order") {
   const std::filesystem::path dir = testing::MakeTempDir("live_watch");
   const std::vector<std::filesystem::path> images = testing::WriteTestJpegs(dir / "shots", 3);
   const std::filesystem::path inbox = dir / "inbox";
@@ -138,12 +138,19 @@ TEST_CASE("live --watch: after SIGKILL a restart re-feeds the files in arrival o
   restart.insert(restart.end(), {"--max-images", "3"});
   const pid_t second = testing::SpawnFlysfm(restart, dir / "second.txt");
   REQUIRE(testing::WaitForExit(second, 30) == 0);
-  const std::vector<std::string> names = ResultNames(dir / "second.txt");
-  REQUIRE(names.size() >= 3);
-  CHECK(std::vector<std::string>(names.begin(), names.begin() + 3) ==
-        std::vector<std::string>{"b.jpg", "a.jpg", "c.jpg"});
+  // The model resumed holds b (its snapshot followed the first image), and
+  // a when a snapshot followed it too: the restart feeds the rest, in the
+  // order the files arrived.
+  const std::string output = testing::ReadText(dir / "second.txt");
+  CHECK_THAT(output, Catch::Contains("resumed: "));
+  std::vector<std::string> names = ResultNames(dir / "second.txt");
+  names.erase(std::unique(names.begin(), names.end()), names.end());
+  const std::vector<std::string> arrival = {"b.jpg", "a.jpg", "c.jpg"};
+  REQUIRE(!names.empty());
+  REQUIRE(names.size() <= 2);
+  CHECK(std::equal(names.begin(), names.end(), arrival.end() - std::ptrdiff_t(names.size())));
   // The log goes on: the first run's records, then the second's.
-  CHECK(testing::LinesStartingWith(out / "log.jsonl", "{").size() >= 5);
+  CHECK(testing::LinesStartingWith(out / "log.jsonl", "{").size() >= 3);
 }
 
 }  // namespace

@@ -19,6 +19,7 @@
 #include <nlohmann/json.hpp>
 
 #include "io/run/output_lock.h"
+#include "io/synthetic/synthetic_source.h"
 #include "tests/io/sources/source_fixture.h"
 #include "tests/testing/temp_dir.h"
 #include "tests/tools/live_process.h"
@@ -208,6 +209,70 @@ TEST_CASE("After a process crashed on one image, the restart skips that image") 
   Engine engine = EngineFlags().MakeEngine();
   CHECK(RunEngine(&source, &engine, flags, options) == 0);
   CHECK(seen.size() == std::size_t(kImages));
+}
+
+// A rendered walk as image files, in capture order.
+std::vector<Frame> RenderedFolder(const fs::path& dir, Camera* camera) {
+  SyntheticCaptureOptions options;
+  options.num_views = 10;
+  options.seed = 4;
+  const SyntheticCapture capture = MakeSyntheticCapture(options);
+  *camera = capture.camera;
+  fs::create_directories(dir);
+  for (const Frame& frame : capture.frames) {
+    std::ofstream(dir / frame.name, std::ios::binary)
+        .write(reinterpret_cast<const char*>(frame.bytes.data()),
+               std::streamsize(frame.bytes.size()));
+  }
+  return ListImageFolder(dir);
+}
+
+TEST_CASE("batch --resume continues the checkpointed model and extends a finished one") {
+  const fs::path dir = testing::MakeTempDir("run_engine_resume");
+  Camera camera;
+  const std::vector<Frame> frames = RenderedFolder(dir / "images", &camera);
+  const fs::path out = dir / "out";
+  EngineFlags flags = Flags(out);
+  flags.camera = camera.ToString();
+  const auto run = [&](std::size_t num_frames) {
+    FrameListSource source(std::vector<Frame>(frames.begin(), frames.begin() + num_frames));
+    Engine engine = flags.MakeEngine();
+    REQUIRE(RunEngine(&source, &engine, flags) == 0);
+    return Summary(out);
+  };
+
+  // The first half, finished; then the whole folder on the same model: only
+  // the new images are processed.
+  const std::size_t half = frames.size() / 2;
+  CHECK(run(half)["resumed_images"] == 0);
+  REQUIRE(fs::exists(out / "state" / "snapshot.bin"));
+  flags.resume = true;
+  nlohmann::json summary = run(frames.size());
+  CHECK(summary["resumed_images"] == half);
+  CHECK(summary["skipped_in_model"] == half);
+  CHECK(summary["images_in"] == frames.size() - half);
+  CHECK(summary["registered"] == frames.size());
+  const std::vector<std::string> logged = LoggedNames(out);
+  CHECK(std::set<std::string>(logged.begin(), logged.end()).size() == frames.size());
+
+  // Nothing new: nothing processed, the model as it was.
+  summary = run(frames.size());
+  CHECK(summary["images_in"] == 0);
+  CHECK(summary["registered"] == frames.size());
+
+  // Without --resume a new model starts.
+  flags.resume = false;
+  CHECK(run(half)["resumed_images"] == 0);
+
+  // A checkpoint that cannot be read stops the run with the reason and
+  // what to do; nothing is overwritten.
+  std::ofstream(out / "state" / "snapshot.bin", std::ios::binary | std::ios::trunc) << "junk";
+  flags.resume = true;
+  FrameListSource source(frames);
+  Engine engine = flags.MakeEngine();
+  CHECK_THROWS_WITH(RunEngine(&source, &engine, flags),
+                    Catch::Contains("cannot resume from") && Catch::Contains("move that folder"));
+  CHECK(testing::ReadText(out / "state" / "snapshot.bin") == "junk");
 }
 
 TEST_CASE("A second flysfm on the same --out fails at once, naming the first") {

@@ -1,0 +1,201 @@
+// Engine::WriteImageRecord / WriteSnapshot / Restore: an engine restored from
+// a checkpoint continues the same model as one that never stopped.
+
+#include <fstream>
+#include <map>
+#include <sstream>
+
+#include <catch2/catch.hpp>
+
+#include "core/engine.h"
+#include "io/evaluation/evaluation.h"
+#include "io/synthetic/synthetic_source.h"
+#include "tests/testing/temp_dir.h"
+
+namespace flysfm {
+namespace {
+
+struct Files {
+  SyntheticCapture capture;
+  // The frames as files: a restored engine decodes the images LSM still
+  // searches again from theirs.
+  std::vector<Frame> frames;
+};
+
+const Files& Capture() {
+  static const Files files = [] {
+    SyntheticCaptureOptions options;
+    options.num_views = 10;
+    options.seed = 5;
+    Files files{MakeSyntheticCapture(options), {}};
+    const std::filesystem::path dir = testing::MakeTempDir("engine_checkpoint");
+    for (const Frame& frame : files.capture.frames) {
+      Frame file;
+      file.name = frame.name;
+      file.path = dir / frame.name;
+      std::ofstream(file.path, std::ios::binary)
+          .write(reinterpret_cast<const char*>(frame.bytes.data()),
+                 std::streamsize(frame.bytes.size()));
+      files.frames.push_back(file);
+    }
+    return files;
+  }();
+  return files;
+}
+
+// A whole checkpoint in memory: the snapshot, each image's record and the
+// windows of the images kept as windows.
+struct Checkpoint {
+  std::string snapshot;
+  std::map<image_t, std::string> records;
+  std::map<image_t, std::string> windows;
+};
+
+Checkpoint Save(const Engine& engine) {
+  Checkpoint checkpoint;
+  for (const auto& [image_id, image] : engine.reconstruction().images()) {
+    std::ostringstream record;
+    engine.WriteImageRecord(image_id, record);
+    checkpoint.records[image_id] = record.str();
+    const LsmImageStore& lsm = engine.lsm_images();
+    if (lsm.HasPixels(image_id) && !lsm.IsWhole(image_id)) {
+      std::ostringstream windows;
+      lsm.WriteWindows(image_id, windows);
+      checkpoint.windows[image_id] = windows.str();
+    }
+  }
+  std::ostringstream snapshot;
+  engine.WriteSnapshot(snapshot);
+  checkpoint.snapshot = snapshot.str();
+  return checkpoint;
+}
+
+Engine::CheckpointOpener Opener(const std::map<image_t, std::string>& files) {
+  return [&files](image_t image_id) -> std::unique_ptr<std::istream> {
+    const auto it = files.find(image_id);
+    if (it == files.end()) return nullptr;
+    return std::make_unique<std::istringstream>(it->second);
+  };
+}
+
+void Restore(const Checkpoint& checkpoint, Engine* engine) {
+  std::istringstream snapshot(checkpoint.snapshot);
+  engine->Restore(snapshot, Opener(checkpoint.records), Opener(checkpoint.windows));
+}
+
+void Feed(Engine* engine, std::size_t begin, std::size_t end) {
+  for (std::size_t i = begin; i < end; ++i) engine->AddImage(Capture().frames[i]);
+}
+
+// Camera centres by image name.
+std::map<std::string, Eigen::Vector3d> Centers(const Reconstruction& model) {
+  std::map<std::string, Eigen::Vector3d> centers;
+  for (const image_t image_id : model.RegisteredImageIds()) {
+    const Image& image = model.image(image_id);
+    centers[image.name] = ProjectionCenter(*image.cam_from_world);
+  }
+  return centers;
+}
+
+// The two models hold the same images, points and poses. Both engines did
+// the same arithmetic, but the restored model's point table iterates in
+// another order, which reorders BA's sums: equal to rounding, far below
+// the synthetic scene's pixel accuracy (0.5 % of the walk).
+void CheckSameModel(const Reconstruction& resumed, const Reconstruction& reference) {
+  CHECK(resumed.images().size() == reference.images().size());
+  CHECK(resumed.NumPoints3D() == reference.NumPoints3D());
+  CHECK(resumed.NumObservations() == reference.NumObservations());
+  const auto resumed_centers = Centers(resumed);
+  const auto reference_centers = Centers(reference);
+  REQUIRE(resumed_centers.size() == reference_centers.size());
+  for (const auto& [name, center] : reference_centers) {
+    INFO(name);
+    REQUIRE(resumed_centers.count(name) == 1);
+    CHECK((resumed_centers.at(name) - center).norm() <
+          1e-6 * SyntheticCaptureOptions().path_length);
+  }
+  for (const auto& [camera_id, camera] : reference.cameras()) {
+    CHECK(resumed.camera(camera_id).MeanFocalLength() ==
+          Approx(camera.MeanFocalLength()).epsilon(1e-7));
+  }
+}
+
+}  // namespace
+
+TEST_CASE("A restored engine continues the model an uninterrupted one builds") {
+  const Files& files = Capture();
+  const std::size_t n = files.frames.size();
+  for (const bool known_intrinsics : {true, false}) {
+    INFO("known intrinsics: " << known_intrinsics);
+    const std::optional<Camera> camera =
+        known_intrinsics ? std::optional<Camera>(files.capture.camera) : std::nullopt;
+    Engine reference(Engine::Options(), camera);
+    Feed(&reference, 0, n);
+
+    // Stopped before the model exists (known intrinsics) and while it
+    // grows (both; unknown ones still being self-calibrated).
+    std::vector<std::size_t> stops = {n / 2};
+    if (known_intrinsics) stops.insert(stops.begin(), 1);
+    for (const std::size_t stop : stops) {
+      INFO("stopped after " << stop << " images");
+      Engine first(Engine::Options(), camera);
+      Feed(&first, 0, stop);
+      const Checkpoint checkpoint = Save(first);
+
+      Engine resumed(Engine::Options(), camera);
+      Restore(checkpoint, &resumed);
+      CHECK(resumed.reconstruction().NumRegisteredImages() ==
+            first.reconstruction().NumRegisteredImages());
+      CHECK(resumed.PendingImageNames() == first.PendingImageNames());
+      CHECK(resumed.lsm_images().window_bytes() == first.lsm_images().window_bytes());
+      CHECK(resumed.lsm_images().WholeImages() == first.lsm_images().WholeImages());
+      Feed(&resumed, stop, n);
+      CheckSameModel(resumed.reconstruction(), reference.reconstruction());
+    }
+    CHECK(reference.reconstruction().NumRegisteredImages() == n);
+  }
+}
+
+TEST_CASE("A checkpoint that is cut short, or from another camera, is refused with a reason") {
+  const Files& files = Capture();
+  Engine first(Engine::Options(), files.capture.camera);
+  Feed(&first, 0, 6);
+  const Checkpoint checkpoint = Save(first);
+
+  SECTION("cut short anywhere") {
+    for (const double fraction : {0.0, 0.01, 0.3, 0.7, 0.999}) {
+      INFO("cut at " << fraction);
+      Checkpoint cut = checkpoint;
+      cut.snapshot.resize(std::size_t(fraction * cut.snapshot.size()));
+      Engine engine(Engine::Options(), files.capture.camera);
+      CHECK_THROWS_AS(Restore(cut, &engine), std::runtime_error);
+    }
+    Checkpoint cut = checkpoint;
+    std::string& record = cut.records.begin()->second;
+    record.resize(record.size() / 2);
+    Engine engine(Engine::Options(), files.capture.camera);
+    CHECK_THROWS_AS(Restore(cut, &engine), std::runtime_error);
+  }
+  SECTION("a record missing") {
+    Checkpoint missing = checkpoint;
+    missing.records.erase(missing.records.begin());
+    Engine engine(Engine::Options(), files.capture.camera);
+    CHECK_THROWS_WITH(Restore(missing, &engine), Catch::Contains("no record of image"));
+  }
+  SECTION("another camera") {
+    Engine engine(Engine::Options(), std::nullopt);
+    CHECK_THROWS_WITH(Restore(checkpoint, &engine), Catch::Contains("same --camera"));
+  }
+  SECTION("missing windows only leave those images out of LSM") {
+    Checkpoint without = checkpoint;
+    REQUIRE_FALSE(without.windows.empty());
+    without.windows.clear();
+    Engine engine(Engine::Options(), files.capture.camera);
+    Restore(without, &engine);
+    CHECK(engine.lsm_images().window_bytes() == 0);
+    Feed(&engine, 6, files.frames.size());
+    CHECK(engine.reconstruction().NumRegisteredImages() == files.frames.size());
+  }
+}
+
+}  // namespace flysfm

@@ -1,0 +1,127 @@
+#include "io/run/checkpoint.h"
+
+#include <fstream>
+
+#include <catch2/catch.hpp>
+
+#include "io/synthetic/synthetic_source.h"
+#include "tests/testing/temp_dir.h"
+
+namespace flysfm {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct Walk {
+  Camera camera;
+  std::vector<Frame> frames;  // as files
+};
+
+const Walk& RenderedWalk() {
+  static const Walk walk = [] {
+    SyntheticCaptureOptions options;
+    options.num_views = 10;
+    options.seed = 8;
+    const SyntheticCapture capture = MakeSyntheticCapture(options);
+    const fs::path dir = testing::MakeTempDir("checkpoint_frames");
+    Walk walk{capture.camera, {}};
+    for (const Frame& frame : capture.frames) {
+      Frame file;
+      file.name = frame.name;
+      file.path = dir / frame.name;
+      std::ofstream(file.path, std::ios::binary)
+          .write(reinterpret_cast<const char*>(frame.bytes.data()),
+                 std::streamsize(frame.bytes.size()));
+      walk.frames.push_back(file);
+    }
+    return walk;
+  }();
+  return walk;
+}
+
+TEST_CASE("Each image's record and windows are written once; the snapshot within its share") {
+  const Walk& walk = RenderedWalk();
+  const fs::path dir = testing::MakeTempDir("checkpoint") / "state";
+  // A share so small that after the first snapshot only the final one is
+  // due: a crash before it resumes from the first image.
+  Checkpointer::Options options;
+  options.max_snapshot_share = 1e-9;
+  Checkpointer checkpointer(dir, options);
+  CHECK_FALSE(checkpointer.Exists());
+  Engine engine(Engine::Options(), walk.camera);
+  for (const Frame& frame : walk.frames) {
+    engine.AddImage(frame);
+    checkpointer.Update(engine, 100.0);
+  }
+  CHECK(checkpointer.summary().num_snapshots == 1);
+  for (const auto& [image_id, image] : engine.reconstruction().images()) {
+    CHECK(fs::exists(dir / "images" / (std::to_string(image_id) + ".bin")));
+    const LsmImageStore& lsm = engine.lsm_images();
+    CHECK(fs::exists(dir / "windows" / (std::to_string(image_id) + ".bin")) ==
+          (lsm.HasPixels(image_id) && !lsm.IsWhole(image_id)));
+  }
+
+  // The first snapshot held one image: the restart goes on from there, and
+  // the later images come again.
+  {
+    Checkpointer restart(dir, options);
+    Engine resumed(Engine::Options(), walk.camera);
+    restart.Restore(&resumed);
+    CHECK(resumed.reconstruction().images().size() == 1);
+    for (std::size_t i = 1; i < walk.frames.size(); ++i) {
+      resumed.AddImage(walk.frames[i]);
+      restart.Update(resumed, 100.0);
+    }
+    CHECK(resumed.reconstruction().NumRegisteredImages() == walk.frames.size());
+  }
+
+  // The final snapshot holds everything.
+  checkpointer.Update(engine, 0.0, /*final=*/true);
+  CHECK(checkpointer.summary().num_snapshots == 2);
+  Checkpointer restart(dir, options);
+  Engine resumed(Engine::Options(), walk.camera);
+  restart.Restore(&resumed);
+  CHECK(resumed.reconstruction().NumRegisteredImages() == walk.frames.size());
+  CHECK(resumed.reconstruction().NumPoints3D() == engine.reconstruction().NumPoints3D());
+
+  // A snapshot is written only when the engine's state changed.
+  options.max_snapshot_share = 1;
+  Checkpointer every(testing::MakeTempDir("checkpoint_every") / "state", options);
+  every.Update(engine, 1e6);
+  every.Update(engine, 1e6);
+  CHECK(every.summary().num_snapshots == 1);  // nothing new: no snapshot
+  CHECK(every.summary().bytes > 0);
+}
+
+TEST_CASE("A checkpoint that cannot be written is reported, and the next update completes it") {
+  const Walk& walk = RenderedWalk();
+  const fs::path parent = testing::MakeTempDir("checkpoint_blocked");
+  // A file where the folder should be: every write fails.
+  std::ofstream(parent / "state") << "in the way";
+  Checkpointer checkpointer(parent / "state", Checkpointer::Options());
+  Engine engine(Engine::Options(), walk.camera);
+  engine.AddImage(walk.frames[0]);
+  engine.AddImage(walk.frames[1]);
+  CHECK_THROWS_AS(checkpointer.Update(engine, 100.0), std::runtime_error);
+  fs::remove(parent / "state");
+  checkpointer.Update(engine, 100.0);
+  Engine resumed(Engine::Options(), walk.camera);
+  checkpointer.Restore(&resumed);
+  CHECK(resumed.reconstruction().images().size() == 2);
+}
+
+TEST_CASE("Clear starts a new checkpoint; a bad share is refused") {
+  const fs::path dir = testing::MakeTempDir("checkpoint_clear") / "state";
+  fs::create_directories(dir);
+  std::ofstream(dir / "snapshot.bin") << "old";
+  Checkpointer checkpointer(dir, Checkpointer::Options());
+  CHECK(checkpointer.Exists());
+  checkpointer.Clear();
+  CHECK_FALSE(checkpointer.Exists());
+  Checkpointer::Options bad;
+  bad.max_snapshot_share = 0;
+  CHECK_THROWS_AS(Checkpointer(dir, bad), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace flysfm
