@@ -150,20 +150,28 @@ class Engine {
   // an image fixes once and for all, written once: its record (name, file,
   // features, verified matches with the images before it), complete when
   // AddImage returns, and its LSM windows, once it keeps only those
-  // (lsm_images().WriteWindows); and a snapshot of the rest, whose size
-  // grows with the model. Restore continues the same model on an engine made with the
-  // same camera and retrieval as the checkpointed one, before any image.
+  // (lsm_images().WriteWindows); the retrieval model learnt from the
+  // session, which changes only at a retraining (a new
+  // RetrievalModelVersion); and a snapshot of the rest, whose size grows
+  // with the model. Restore continues the same model on an engine made with
+  // the same camera and retrieval as the checkpointed one, before any
+  // image.
   void WriteImageRecord(image_t image_id, std::ostream& out) const;
+  int RetrievalModelVersion() const { return retriever_.model_version(); }
+  void WriteRetrievalModel(std::ostream& out) const { retriever_.WriteModel(out); }
   void WriteSnapshot(std::ostream& out) const;
-  // `open_record` and `open_windows` give an image's written record and
-  // windows (nullptr: not written; a missing record is an error, missing
-  // windows leave the image out of LSM). Whole images LSM still searches
-  // are decoded again from their files. Throws std::runtime_error, naming
-  // the problem, on a truncated, inconsistent or mismatched checkpoint;
-  // the engine is unusable then.
-  using CheckpointOpener = std::function<std::unique_ptr<std::istream>(image_t)>;
-  void Restore(std::istream& snapshot, const CheckpointOpener& open_record,
-               const CheckpointOpener& open_windows);
+  // The files of a checkpoint by image id (or model version); nullptr when
+  // not written. A missing record or retrieval model is an error, missing
+  // windows leave the image out of LSM.
+  struct CheckpointFiles {
+    std::function<std::unique_ptr<std::istream>(image_t)> record;
+    std::function<std::unique_ptr<std::istream>(image_t)> windows;
+    std::function<std::unique_ptr<std::istream>(int)> retrieval_model;
+  };
+  // Whole images LSM still searches are decoded again from their files.
+  // Throws std::runtime_error, naming the problem, on a truncated,
+  // inconsistent or mismatched checkpoint; the engine is unusable then.
+  void Restore(std::istream& snapshot, const CheckpointFiles& files);
 
   const Options& options() const { return options_; }
   const Reconstruction& reconstruction() const { return reconstruction_; }

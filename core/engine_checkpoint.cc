@@ -47,6 +47,7 @@ void Engine::WriteSnapshot(std::ostream& out) const {
   WriteHeader(out, kSnapshotMagic, kCheckpointVersion);
   WriteString(out, CameraText(known_camera_));
   reconstruction_.Write(out);
+  WriteValue(out, retriever_.model_version());
   retriever_.Write(out);
   pending_.Write(out);
   initializer_.Write(out);
@@ -68,8 +69,7 @@ void Engine::WriteSnapshot(std::ostream& out) const {
   lsm_images_.WriteState(out);
 }
 
-void Engine::Restore(std::istream& snapshot, const CheckpointOpener& open_record,
-                     const CheckpointOpener& open_windows) {
+void Engine::Restore(std::istream& snapshot, const CheckpointFiles& files) {
   FLYSFM_CHECK(reconstruction_.images().empty());
   ReadHeader(snapshot, kSnapshotMagic, kCheckpointVersion);
   const std::string camera = ReadString(snapshot, "camera");
@@ -80,7 +80,7 @@ void Engine::Restore(std::istream& snapshot, const CheckpointOpener& open_record
   }
   reconstruction_ = Reconstruction::Read(snapshot);
   for (const auto& [image_id, image] : reconstruction_.images()) {
-    const std::unique_ptr<std::istream> record = open_record(image_id);
+    const std::unique_ptr<std::istream> record = files.record(image_id);
     if (!record) {
       throw std::runtime_error("the checkpoint has no record of image " + image.name);
     }
@@ -112,7 +112,10 @@ void Engine::Restore(std::istream& snapshot, const CheckpointOpener& open_record
       matches_.SetMatches(image_id, other_id, std::move(matches));
     }
   }
-  retriever_.Read(snapshot, [this](image_t image_id) -> const FeatureSet& {
+  const int model_version = ReadValue<int>(snapshot, "retrieval model version");
+  const std::unique_ptr<std::istream> model =
+      model_version > 0 ? files.retrieval_model(model_version) : nullptr;
+  retriever_.Read(snapshot, model.get(), [this](image_t image_id) -> const FeatureSet& {
     const auto features = features_.find(image_id);
     if (features == features_.end()) {
       throw std::runtime_error("the checkpoint's retrieval names an unknown image");
@@ -162,7 +165,7 @@ void Engine::Restore(std::istream& snapshot, const CheckpointOpener& open_record
         cv::cvtColor(decoded.image, grey, cv::COLOR_BGR2GRAY);
         return grey;
       },
-      open_windows);
+      files.windows);
 }
 
 }  // namespace flysfm

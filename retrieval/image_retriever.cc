@@ -145,6 +145,14 @@ void ImageRetriever::RebuildIndex(std::vector<image_t> ids,
   for (int k = 0; k < n; ++k) index_->Insert(ids[k], descriptors[k]);
 }
 
+void ImageRetriever::WriteModel(std::ostream& out) const {
+  const auto* vlad = dynamic_cast<const VladExtractor*>(extractor_.get());
+  WriteValue(out, std::uint8_t(bootstrapped_ && vlad != nullptr));
+  if (bootstrapped_ && vlad) vlad->Write(out);
+  WriteValue(out, std::uint8_t(bootstrapped_ && tree_ != nullptr));
+  if (bootstrapped_ && tree_) tree_->Write(out);
+}
+
 void ImageRetriever::Write(std::ostream& out) const {
   WriteValue(out, std::uint8_t(bootstrapped_));
   for (const int value : {generation_, int(frozen_), next_training_at_, next_tree_at_,
@@ -152,13 +160,6 @@ void ImageRetriever::Write(std::ostream& out) const {
     WriteValue(out, value);
   }
   WriteVector(out, retained_ids_);
-  if (bootstrapped_) {
-    const auto* vlad = dynamic_cast<const VladExtractor*>(extractor_.get());
-    WriteValue(out, std::uint8_t(vlad != nullptr));
-    if (vlad) vlad->Write(out);
-    WriteValue(out, std::uint8_t(tree_ != nullptr));
-    if (tree_) tree_->Write(out);
-  }
   WriteValue(out, std::uint8_t(index_ != nullptr));
   if (!index_) return;
   RowMatrixXf descriptors(index_->Size(), index_->Dim());
@@ -169,7 +170,7 @@ void ImageRetriever::Write(std::ostream& out) const {
   WriteMatrix(out, descriptors);
 }
 
-void ImageRetriever::Read(std::istream& in,
+void ImageRetriever::Read(std::istream& in, std::istream* model,
                           const std::function<const FeatureSet&(image_t)>& features_of) {
   FLYSFM_CHECK(!index_ || index_->Size() == 0);
   const bool bootstrapped = ReadValue<std::uint8_t>(in, "retrieval mode") != 0;
@@ -194,11 +195,14 @@ void ImageRetriever::Read(std::istream& in,
   if (bootstrapped_) {
     extractor_.reset();
     tree_.reset();
-    if (ReadValue<std::uint8_t>(in, "retrieval model")) {
-      extractor_ = std::make_shared<VladExtractor>(VladExtractor::Read(in));
-    }
-    if (ReadValue<std::uint8_t>(in, "retrieval tree")) {
-      tree_ = std::make_shared<const VocabularyTree>(VocabularyTree::Read(in));
+    if (model_version() > 0) {
+      if (!model) throw std::runtime_error("the checkpoint's retrieval model is missing");
+      if (ReadValue<std::uint8_t>(*model, "retrieval model")) {
+        extractor_ = std::make_shared<VladExtractor>(VladExtractor::Read(*model));
+      }
+      if (ReadValue<std::uint8_t>(*model, "retrieval tree")) {
+        tree_ = std::make_shared<const VocabularyTree>(VocabularyTree::Read(*model));
+      }
     }
   }
   index_.reset();

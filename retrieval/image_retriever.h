@@ -105,15 +105,21 @@ class ImageRetriever {
   int num_tree_builds() const { return num_tree_builds_; }
   bool uses_tree() const { return tree_ != nullptr; }
 
-  // The engine's checkpoint: what was learnt and inserted. A trained
-  // retriever writes its index only (its model is read from its file
-  // again). Read restores into a retriever made the same way (bootstrapped
-  // or trained, nothing inserted yet); `features_of` gives the features of
-  // the images a bootstrapped model still retains for its next training.
-  // Throws std::runtime_error on a truncated or inconsistent stream, or on
-  // a checkpoint made the other way.
+  // The engine's checkpoint. What a bootstrapped retriever learnt (VLAD
+  // model, tree: megabytes, changed only at a retraining) is written apart
+  // from the rest (schedule, index), and only when `model_version()`
+  // changed; a trained retriever's model is read from its file again.
+  // Read restores into a retriever made the same way (bootstrapped or
+  // trained, nothing inserted yet): `model` is the learnt model of the
+  // version the state names (nullptr when it names none), `features_of`
+  // gives the features of the images a bootstrapped model still retains
+  // for its next training. Throws std::runtime_error on a truncated or
+  // inconsistent stream, or on a checkpoint made the other way.
+  int model_version() const { return num_model_trainings_ + num_tree_builds_; }
+  void WriteModel(std::ostream& out) const;
   void Write(std::ostream& out) const;
-  void Read(std::istream& in, const std::function<const FeatureSet&(image_t)>& features_of);
+  void Read(std::istream& in, std::istream* model,
+            const std::function<const FeatureSet&(image_t)>& features_of);
 
  private:
   void Retrain();

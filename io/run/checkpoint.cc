@@ -78,9 +78,14 @@ std::filesystem::path Checkpointer::ImageFile(const char* folder, image_t image_
 void Checkpointer::Restore(Engine* engine) {
   const std::unique_ptr<std::istream> snapshot = OpenBinary(dir_ / "snapshot.bin");
   if (!snapshot) throw std::runtime_error("cannot read " + (dir_ / "snapshot.bin").string());
-  engine->Restore(
-      *snapshot, [this](image_t image_id) { return OpenBinary(ImageFile("images", image_id)); },
-      [this](image_t image_id) { return OpenBinary(ImageFile("windows", image_id)); });
+  Engine::CheckpointFiles files;
+  files.record = [this](image_t image_id) { return OpenBinary(ImageFile("images", image_id)); };
+  files.windows = [this](image_t image_id) { return OpenBinary(ImageFile("windows", image_id)); };
+  files.retrieval_model = [this](int version) {
+    return OpenBinary(ImageFile("retrieval", image_t(version)));
+  };
+  engine->Restore(*snapshot, files);
+  retrieval_model_version_ = engine->RetrievalModelVersion();
   const auto& images = engine->reconstruction().images();
   last_recorded_ = images.empty() ? 0 : images.rbegin()->first;
   awaiting_windows_.clear();
@@ -93,6 +98,7 @@ void Checkpointer::Restore(Engine* engine) {
 void Checkpointer::Clear() {
   std::filesystem::remove_all(dir_);
   last_recorded_ = 0;
+  retrieval_model_version_ = 0;
   awaiting_windows_.clear();
   engine_ms_since_snapshot_ = 0;
 }
@@ -102,6 +108,7 @@ void Checkpointer::Update(const Engine& engine, double engine_ms, bool final) {
   auto start = std::chrono::steady_clock::now();
   std::filesystem::create_directories(dir_ / "images");
   std::filesystem::create_directories(dir_ / "windows");
+  std::filesystem::create_directories(dir_ / "retrieval");
   const auto& images = engine.reconstruction().images();
   for (auto it = images.upper_bound(last_recorded_); it != images.end(); ++it) {
     const image_t image_id = it->first;
@@ -126,6 +133,13 @@ void Checkpointer::Update(const Engine& engine, double engine_ms, bool final) {
     }
     it = awaiting_windows_.erase(it);
   }
+  const int model_version = engine.RetrievalModelVersion();
+  if (model_version != retrieval_model_version_) {
+    summary_.bytes += WriteBinary(ImageFile("retrieval", image_t(model_version)),
+                                  [&](std::ostream& out) { engine.WriteRetrievalModel(out); });
+    retrieval_model_version_ = model_version;
+    snapshot_due_ = true;
+  }
   summary_.records_ms += MillisecondsSince(start);
 
   snapshot_due_ = snapshot_due_ || final;
@@ -143,6 +157,13 @@ void Checkpointer::Update(const Engine& engine, double engine_ms, bool final) {
   ++summary_.num_snapshots;
   engine_ms_since_snapshot_ = 0;
   snapshot_due_ = false;
+  // Older retrieval models are named by no snapshot any more.
+  for (const auto& entry : std::filesystem::directory_iterator(dir_ / "retrieval")) {
+    if (entry.path() != ImageFile("retrieval", image_t(model_version))) {
+      std::error_code ignored;
+      std::filesystem::remove(entry.path(), ignored);
+    }
+  }
 }
 
 }  // namespace flysfm

@@ -5,6 +5,8 @@
 // (docs/live.md, "Crash and resume"):
 //   images/<id>.bin   an image's record, written once after its AddImage
 //   windows/<id>.bin  its LSM windows, once it keeps only those
+//   retrieval/<v>.bin the retrieval model learnt from the session, version
+//                     v, written when retraining made a new one
 //   snapshot.bin      the rest of the engine's state, replaced atomically
 // Every file is written whole or not at all (temporary, then rename). A
 // snapshot names the images it holds, and every record and windows file it
@@ -70,8 +72,9 @@ class Checkpointer {
   Options options_;
   Summary summary_;
   // The last image whose record is written; images whose windows are not
-  // written yet (kept whole by LSM).
+  // written yet (kept whole by LSM); the retrieval model version written.
   image_t last_recorded_ = 0;
+  int retrieval_model_version_ = 0;
   std::set<image_t> awaiting_windows_;
   double engine_ms_since_snapshot_ = 0;
   bool snapshot_due_ = false;

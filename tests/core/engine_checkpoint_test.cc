@@ -47,6 +47,7 @@ const Files& Capture() {
 // windows of the images kept as windows.
 struct Checkpoint {
   std::string snapshot;
+  std::string retrieval_model;
   std::map<image_t, std::string> records;
   std::map<image_t, std::string> windows;
 };
@@ -64,13 +65,17 @@ Checkpoint Save(const Engine& engine) {
       checkpoint.windows[image_id] = windows.str();
     }
   }
+  std::ostringstream model;
+  engine.WriteRetrievalModel(model);
+  checkpoint.retrieval_model = model.str();
   std::ostringstream snapshot;
   engine.WriteSnapshot(snapshot);
   checkpoint.snapshot = snapshot.str();
   return checkpoint;
 }
 
-Engine::CheckpointOpener Opener(const std::map<image_t, std::string>& files) {
+std::function<std::unique_ptr<std::istream>(image_t)> Opener(
+    const std::map<image_t, std::string>& files) {
   return [&files](image_t image_id) -> std::unique_ptr<std::istream> {
     const auto it = files.find(image_id);
     if (it == files.end()) return nullptr;
@@ -80,7 +85,13 @@ Engine::CheckpointOpener Opener(const std::map<image_t, std::string>& files) {
 
 void Restore(const Checkpoint& checkpoint, Engine* engine) {
   std::istringstream snapshot(checkpoint.snapshot);
-  engine->Restore(snapshot, Opener(checkpoint.records), Opener(checkpoint.windows));
+  Engine::CheckpointFiles files;
+  files.record = Opener(checkpoint.records);
+  files.windows = Opener(checkpoint.windows);
+  files.retrieval_model = [&](int) {
+    return std::make_unique<std::istringstream>(checkpoint.retrieval_model);
+  };
+  engine->Restore(snapshot, files);
 }
 
 void Feed(Engine* engine, std::size_t begin, std::size_t end) {

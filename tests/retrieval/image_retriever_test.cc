@@ -126,10 +126,12 @@ TEST_CASE("a retriever restored from its checkpoint answers and learns as the or
     INFO("stopped after " << stop << " images");
     ImageRetriever original(SmallOptions());
     feed(0, stop, &original);
-    std::stringstream checkpoint;
+    std::stringstream checkpoint, model;
     original.Write(checkpoint);
+    original.WriteModel(model);
     ImageRetriever restored(SmallOptions());
-    restored.Read(checkpoint, [&](image_t id) -> const FeatureSet& { return views.at(id); });
+    restored.Read(checkpoint, &model,
+                  [&](image_t id) -> const FeatureSet& { return views.at(id); });
     CHECK(restored.NumImages() == original.NumImages());
     CHECK(restored.generation() == original.generation());
     CHECK(restored.uses_tree() == original.uses_tree());
@@ -154,15 +156,25 @@ TEST_CASE("a retriever refuses a checkpoint of the other mode or cut short") {
   testing::PlaceFeatures places(10, 4);
   ImageRetriever original(SmallOptions());
   Feed(places, 10, 20, &original);
-  std::ostringstream written;
+  std::ostringstream written, model;
   original.Write(written);
+  original.WriteModel(model);
   const auto no_features = [](image_t) -> const FeatureSet& {
     throw std::runtime_error("no features");
   };
   for (const double fraction : {0.0, 0.5, 0.99}) {
     std::istringstream cut(written.str().substr(0, std::size_t(fraction * written.str().size())));
+    std::istringstream whole_model(model.str());
     ImageRetriever restored(SmallOptions());
-    CHECK_THROWS_AS(restored.Read(cut, no_features), std::runtime_error);
+    CHECK_THROWS_AS(restored.Read(cut, &whole_model, no_features), std::runtime_error);
+  }
+  // The state without its model, or with the model cut short.
+  for (const double fraction : {-1.0, 0.5}) {
+    std::istringstream state(written.str());
+    std::istringstream cut_model(model.str().substr(0, std::size_t(fraction * model.str().size())));
+    ImageRetriever restored(SmallOptions());
+    CHECK_THROWS_AS(restored.Read(state, fraction < 0 ? nullptr : &cut_model, no_features),
+                    std::runtime_error);
   }
 }
 

@@ -1,6 +1,7 @@
 #include "io/run/checkpoint.h"
 
 #include <fstream>
+#include <iterator>
 
 #include <catch2/catch.hpp>
 
@@ -78,6 +79,13 @@ TEST_CASE("Each image's record and windows are written once; the snapshot within
   // The final snapshot holds everything.
   checkpointer.Update(engine, 0.0, /*final=*/true);
   CHECK(checkpointer.summary().num_snapshots == 2);
+  // The retrieval model learnt from the session is kept in the version the
+  // snapshot names, older ones removed.
+  const auto model_files = std::distance(fs::directory_iterator(dir / "retrieval"),
+                                         fs::directory_iterator());
+  CHECK(model_files == 1);
+  CHECK(fs::exists(dir / "retrieval" /
+                   (std::to_string(engine.RetrievalModelVersion()) + ".bin")));
   Checkpointer restart(dir, options);
   Engine resumed(Engine::Options(), walk.camera);
   restart.Restore(&resumed);
