@@ -1,7 +1,6 @@
 // Engine::WriteImageRecord / WriteSnapshot / Restore: an engine restored from
 // a checkpoint continues the same model as one that never stopped.
 
-#include <fstream>
 #include <map>
 #include <sstream>
 
@@ -10,6 +9,7 @@
 #include "core/engine.h"
 #include "io/evaluation/evaluation.h"
 #include "io/synthetic/synthetic_source.h"
+#include "tests/testing/frame_files.h"
 #include "tests/testing/temp_dir.h"
 
 namespace flysfm {
@@ -28,16 +28,8 @@ const Files& Capture() {
     options.num_views = 10;
     options.seed = 5;
     Files files{MakeSyntheticCapture(options), {}};
-    const std::filesystem::path dir = testing::MakeTempDir("engine_checkpoint");
-    for (const Frame& frame : files.capture.frames) {
-      Frame file;
-      file.name = frame.name;
-      file.path = dir / frame.name;
-      std::ofstream(file.path, std::ios::binary)
-          .write(reinterpret_cast<const char*>(frame.bytes.data()),
-                 std::streamsize(frame.bytes.size()));
-      files.frames.push_back(file);
-    }
+    files.frames = testing::WriteFrameFiles(files.capture.frames,
+                                            testing::MakeTempDir("engine_checkpoint"));
     return files;
   }();
   return files;

@@ -21,6 +21,7 @@
 #include "io/run/output_lock.h"
 #include "io/synthetic/synthetic_source.h"
 #include "tests/io/sources/source_fixture.h"
+#include "tests/testing/frame_files.h"
 #include "tests/testing/temp_dir.h"
 #include "tests/tools/live_process.h"
 #include "tools/engine_flags.h"
@@ -218,12 +219,7 @@ std::vector<Frame> RenderedFolder(const fs::path& dir, Camera* camera) {
   options.seed = 4;
   const SyntheticCapture capture = MakeSyntheticCapture(options);
   *camera = capture.camera;
-  fs::create_directories(dir);
-  for (const Frame& frame : capture.frames) {
-    std::ofstream(dir / frame.name, std::ios::binary)
-        .write(reinterpret_cast<const char*>(frame.bytes.data()),
-               std::streamsize(frame.bytes.size()));
-  }
+  testing::WriteFrameFiles(capture.frames, dir);
   return ListImageFolder(dir);
 }
 

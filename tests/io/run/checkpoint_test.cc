@@ -6,6 +6,7 @@
 #include <catch2/catch.hpp>
 
 #include "io/synthetic/synthetic_source.h"
+#include "tests/testing/frame_files.h"
 #include "tests/testing/temp_dir.h"
 
 namespace flysfm {
@@ -24,18 +25,8 @@ const Walk& RenderedWalk() {
     options.num_views = 10;
     options.seed = 8;
     const SyntheticCapture capture = MakeSyntheticCapture(options);
-    const fs::path dir = testing::MakeTempDir("checkpoint_frames");
-    Walk walk{capture.camera, {}};
-    for (const Frame& frame : capture.frames) {
-      Frame file;
-      file.name = frame.name;
-      file.path = dir / frame.name;
-      std::ofstream(file.path, std::ios::binary)
-          .write(reinterpret_cast<const char*>(frame.bytes.data()),
-                 std::streamsize(frame.bytes.size()));
-      walk.frames.push_back(file);
-    }
-    return walk;
+    return Walk{capture.camera,
+                testing::WriteFrameFiles(capture.frames, testing::MakeTempDir("checkpoint_frames"))};
   }();
   return walk;
 }
