@@ -161,9 +161,12 @@ TEST_CASE("A restored engine continues the model an uninterrupted one builds") {
 
 TEST_CASE("A checkpoint that is cut short, or from another camera, is refused with a reason") {
   const Files& files = Capture();
-  Engine first(Engine::Options(), files.capture.camera);
-  Feed(&first, 0, 6);
-  const Checkpoint checkpoint = Save(first);
+  // Written once for every section.
+  static const Checkpoint checkpoint = [] {
+    Engine first(Engine::Options(), Capture().capture.camera);
+    Feed(&first, 0, 6);
+    return Save(first);
+  }();
 
   SECTION("cut short anywhere") {
     for (const double fraction : {0.0, 0.01, 0.3, 0.7, 0.999}) {
