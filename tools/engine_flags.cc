@@ -48,6 +48,7 @@ void AddEngineFlags(CLI::App* command, EngineFlags* flags) {
                       "Rewrite the model in --out at most this often while running")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
+  AddViewFlags(command, &flags->view);
 }
 
 Engine EngineFlags::MakeEngine() const {
@@ -98,6 +99,22 @@ std::optional<std::string> ErrorOf(const std::function<void()>& step) {
 int RunEngine(ImageSource* source, Engine* engine, const EngineFlags& flags,
               const RunEngineOptions& options) {
   RunWriter writer(flags.out);
+  // Started before the first image, so that a port in use fails the run at
+  // once rather than after it.
+  const std::unique_ptr<ViewServer> view = StartView(flags.view);
+  std::vector<ViewLine> view_lines;
+  // Each step's changes to the model, as the page draws them (docs/view.md).
+  const auto publish_view = [&] {
+    if (!view) return;
+    view->Publish(MakeViewUpdate(engine->reconstruction(), engine->TakeReconstructionChanges(),
+                                 std::move(view_lines)));
+    view_lines.clear();
+  };
+  if (view) {
+    // A resumed run's model so far, as one update.
+    engine->TakeReconstructionChanges();
+    view->Publish(MakeFullViewUpdate(engine->reconstruction()));
+  }
   const auto start = std::chrono::steady_clock::now();
   auto last_refresh = start;
   const auto seconds_since = [](std::chrono::steady_clock::time_point t) {
@@ -118,6 +135,7 @@ int RunEngine(ImageSource* source, Engine* engine, const EngineFlags& flags,
         if (result.status == ImageStatus::kRegistered) delays_ms.push_back(*delay_ms);
       }
       PrintLine(counts.images_in, result, delay_ms);
+      if (view) view_lines.push_back(MakeViewLine(result, delay_ms));
       writer.Log(result);
       all.push_back(result);
     }
@@ -165,6 +183,7 @@ int RunEngine(ImageSource* source, Engine* engine, const EngineFlags& flags,
       ++counts.images_in;
       const std::string name = frame->frame.name;
       arrivals[name] = frame->frame.arrival;
+      if (view) view->SetLatestShot(frame->image);
       quarantine.BeginEngine(name);
       std::vector<ImageResult> results;
       const std::optional<std::string> error =
@@ -183,6 +202,7 @@ int RunEngine(ImageSource* source, Engine* engine, const EngineFlags& flags,
         results.push_back(failed);
       }
       report(results);
+      publish_view();
       if (seconds_since(last_refresh) >= flags.refresh_seconds) {
         write_outputs(/*final=*/false);
         last_refresh = std::chrono::steady_clock::now();
@@ -194,6 +214,7 @@ int RunEngine(ImageSource* source, Engine* engine, const EngineFlags& flags,
     std::fprintf(stderr, "engine error while finishing: %s; the model is written as it is\n",
                  error->c_str());
   }
+  publish_view();
   const bool written = write_outputs(/*final=*/true);
   const Reconstruction& model = engine->reconstruction();
   std::printf("done: %d images in, %zu registered, %d rejected, %zu pending; %zu points, "
@@ -213,6 +234,14 @@ int RunEngine(ImageSource* source, Engine* engine, const EngineFlags& flags,
                      delays_ms.end());
     std::printf("median delay from arrival to registration: %.0f ms over %zu images\n",
                 delays_ms[delays_ms.size() / 2], delays_ms.size());
+  }
+  if (view) {
+    view->Finish();
+    if (options.keep_view) {
+      std::printf("view: the run is over; still serving %s until Ctrl-C\n", view->Url().c_str());
+      std::fflush(stdout);
+      WaitForInterrupt();
+    }
   }
   return written && !source_failed ? 0 : 1;
 }
