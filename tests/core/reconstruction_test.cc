@@ -138,7 +138,7 @@ TEST_CASE("Deregistering an image removes its observations") {
   }
 }
 
-TEST_CASE("TakeChanges reports what changed since the last take, and only that") {
+TEST_CASE("TakeChanges reports what changed since the last take and only that") {
   Fixture f;
   Reconstruction& r = f.reconstruction;
   const Reconstruction::Changes built = r.TakeChanges();

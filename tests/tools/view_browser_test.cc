@@ -138,7 +138,7 @@ TEST_CASE("view: a page opened as the run starts ends showing the run's model") 
   StopBatch(run);
 }
 
-TEST_CASE("view: a page opened mid-run gets the model so far, then the rest") {
+TEST_CASE("view: a page opened mid-run gets the model so far and then the rest") {
   const std::filesystem::path chromium = Chromium();
   const Run run = StartBatch("view_mid_run", 1.5);
   const std::string url = ViewUrl(run.output);

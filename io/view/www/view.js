@@ -235,11 +235,54 @@
     frustums.forEach(function (object) { object.scale.setScalar(frustumScale); });
   }
 
+  // --- level of detail while moving --------------------------------------
+  // While the view moves, frames should take about `movingFrameMs`: when the
+  // last still frame (every point) took longer, every k-th slot is drawn
+  // instead, through an index over the same buffers, and the whole cloud
+  // again once the view stops. A million points on a tablet's GPU, or on a
+  // CPU without one, would otherwise make orbiting a slide show; a GPU that
+  // draws them all in time draws them all while moving too.
+  const movingFrameMs = 30;
+  // Milliseconds per drawn point, from the frames measured (smoothed).
+  let msPerPoint = 0;
+  let moving = false;
+  let lodGeometry = null;
+  let lodCount = -1;
+  let lodStep = 1;
+  function movingStep() {
+    if (msPerPoint * count <= movingFrameMs) return 1;
+    const budget = Math.max(20000, movingFrameMs / msPerPoint);
+    return Math.max(1, Math.ceil(count / budget));
+  }
+  function movingGeometry() {
+    const step = movingStep();
+    if (step <= 1) return geometry;
+    if (!lodGeometry || lodCount !== count || lodStep !== step ||
+        lodGeometry.attributes.position !== geometry.attributes.position) {
+      const index = new Uint32Array(Math.ceil(count / step));
+      for (let j = 0; j < index.length; ++j) index[j] = j * step;
+      if (lodGeometry) {
+        // Its buffers are the cloud's: only the index is its own to free.
+        lodGeometry.deleteAttribute('position');
+        lodGeometry.deleteAttribute('color');
+        lodGeometry.dispose();
+      }
+      lodGeometry = new THREE.BufferGeometry();
+      lodGeometry.setAttribute('position', geometry.attributes.position);
+      lodGeometry.setAttribute('color', geometry.attributes.color);
+      lodGeometry.setIndex(new THREE.BufferAttribute(index, 1));
+      lodCount = count;
+      lodStep = step;
+    }
+    return lodGeometry;
+  }
+
   // --- what the user sees --------------------------------------------------
   let userMoved = false;
   let follow = false;
   controls.addEventListener('start', function () { userMoved = true; follow = false;
-    $('follow').classList.remove('on'); });
+    moving = true; });
+  controls.addEventListener('end', function () { moving = false; requestRender(); });
   controls.addEventListener('change', requestRender);
 
   function worldCentre(object) {
@@ -250,17 +293,28 @@
     root.updateMatrixWorld(true);
     const box = new THREE.Box3();
     frustums.forEach(function (object) { box.expandByPoint(worldCentre(object)); });
-    if (box.isEmpty() && count > 0) {
-      for (let i = 0; i < count; i += Math.max(1, Math.floor(count / 1000))) {
-        box.expandByPoint(root.localToWorld(new THREE.Vector3(
-          positions[3 * i], positions[3 * i + 1], positions[3 * i + 2])));
+    // About a thousand points, evenly through the slots: the cost of a fit
+    // does not grow with the model. The farthest 5 % on each axis are left
+    // out, so that a few stray points do not shrink the model to a dot.
+    if (count > 0) {
+      const xs = [], ys = [], zs = [];
+      const step = Math.max(1, Math.floor(count / 1000));
+      const v = new THREE.Vector3();
+      for (let i = 0; i < count; i += step) {
+        root.localToWorld(v.set(positions[3 * i], positions[3 * i + 1], positions[3 * i + 2]));
+        xs.push(v.x); ys.push(v.y); zs.push(v.z);
       }
+      const sorted = [xs, ys, zs].map(function (a) { return a.sort(function (p, q) { return p - q; }); });
+      const low = Math.floor(0.05 * (xs.length - 1));
+      const high = Math.ceil(0.95 * (xs.length - 1));
+      box.expandByPoint(new THREE.Vector3(sorted[0][low], sorted[1][low], sorted[2][low]));
+      box.expandByPoint(new THREE.Vector3(sorted[0][high], sorted[1][high], sorted[2][high]));
     }
     if (box.isEmpty()) return;
     const centre = box.getCenter(new THREE.Vector3());
     const radius = Math.max(box.getSize(new THREE.Vector3()).length(), 4 * frustumScale, 1e-3);
     controls.target.copy(centre);
-    camera.position.copy(centre).add(new THREE.Vector3(0, 0.6 * radius, 1.6 * radius));
+    camera.position.copy(centre).add(new THREE.Vector3(0, 0.25 * radius, 0.75 * radius));
     camera.near = radius / 1000;
     camera.far = radius * 1000;
     camera.updateProjectionMatrix();
@@ -423,6 +477,9 @@
   // --- drawing: on demand, so that an idle view costs no battery -----------
   const gl = renderer.getContext();
   const recent = [];
+  let lastDraw = 0;
+  let wasMoving = false;
+  let lastDrawn = 0;
   let pending = false;
   function resize() {
     const width = canvas.clientWidth;
@@ -437,13 +494,32 @@
   function draw() {
     pending = false;
     resize();
+    cloud.geometry = moving ? movingGeometry() : geometry;
     const start = performance.now();
     renderer.render(scene, camera);
     gl.finish();  // the frame's time includes the GPU's
-    recent.push(performance.now() - start);
+    // While moving, frames follow each other: the time from the last one is
+    // what the user sees (a software GL may return from finish() before the
+    // frame is on screen). A frame drawn on demand has only its own time.
+    const now = performance.now();
+    const chained = moving && wasMoving && now - lastDraw < 5000;
+    const ms = chained ? now - lastDraw : now - start;
+    const drawnNow = cloud.geometry === geometry ? count : lodGeometry.index.count;
+    // A chained interval mostly paid for the previous frame's points.
+    const paidFor = chained ? lastDrawn : drawnNow;
+    lastDraw = now;
+    lastDrawn = drawnNow;
+    wasMoving = moving;
+    if (paidFor >= 10000) {
+      const sample = ms / paidFor;
+      msPerPoint = msPerPoint === 0 ? sample : 0.7 * msPerPoint + 0.3 * sample;
+    }
+    recent.push(ms);
     if (recent.length > 30) recent.shift();
     state.frameMs = recent.reduce(function (a, b) { return a + b; }, 0) / recent.length;
-    $('frame').textContent = 'frame: ' + state.frameMs.toFixed(1) + ' ms, ' + count + ' points drawn';
+    const drawn = drawnNow;
+    if (moving) state.movingPoints = drawn;
+    $('frame').textContent = 'frame: ' + state.frameMs.toFixed(1) + ' ms, ' + drawn + ' points drawn';
   }
   function requestRender() {
     if (pending) return;
@@ -454,10 +530,12 @@
 
   // Orbits the view for `frames` frames and resolves to the mean frame time
   // in ms: the interactivity check of a large model (bench/bench_view.cc).
-  state.measureFrames = function (frames) {
+  // `still`: every point drawn, as when the view stops.
+  state.measureFrames = function (frames, still) {
     return new Promise(function (resolve) {
       const times = [];
       let last = performance.now();
+      moving = !still;
       function step() {
         controls.autoRotate = true;
         controls.update();
@@ -469,6 +547,8 @@
           requestAnimationFrame(step);
         } else {
           controls.autoRotate = false;
+          moving = false;
+          requestRender();
           resolve(times.slice(1).reduce(function (a, b) { return a + b; }, 0) /
                   Math.max(1, times.length - 1));
         }

@@ -66,7 +66,7 @@ TEST_CASE("An update carries the changed points and cameras only") {
   CHECK(update.num_images == 5);
 }
 
-TEST_CASE("The view's copy follows the model through additions, moves and removals") {
+TEST_CASE("The view's copy follows the model through additions and moves and removals") {
   Reconstruction model = SceneModel();
   ViewModel view;
   view.Apply(MakeViewUpdate(model, model.TakeChanges(), {}));
@@ -107,7 +107,7 @@ TEST_CASE("Pending and rejected lists follow the per-image lines") {
   CHECK_FALSE(view.Apply(update));
 }
 
-TEST_CASE("Messages are one line of valid JSON, whatever the names and numbers") {
+TEST_CASE("Messages are one line of valid JSON whatever the names and numbers") {
   ViewModel view;
   ViewUpdate update;
   update.lines = {Line("we\"ird\nname\xff.jpg", ImageStatus::kPending, "tab\there")};

@@ -128,7 +128,7 @@ bool WaitForClients(const ViewServer& server, int n) {
   return true;
 }
 
-TEST_CASE("A page opened mid-run gets the whole model first, then what each image changed") {
+TEST_CASE("A page opened mid-run gets the whole model first and then what each image changed") {
   ViewServer server(TestOptions());
   ViewUpdate first = Points(1, 3, 3);
   ViewCamera camera;
@@ -236,7 +236,7 @@ TEST_CASE("On the network every request needs the printed token") {
   CHECK(ViewServer(random).token().size() >= 32);
 }
 
-TEST_CASE("The page, three.js and the thumbnail are served; bad requests get a 4xx") {
+TEST_CASE("The page and three.js and the thumbnail are served and bad requests get a 4xx") {
   ViewServer server(TestOptions());
   httplib::Client client("127.0.0.1", server.port());
   const auto page = client.Get("/");
@@ -286,7 +286,7 @@ TEST_CASE("The page, three.js and the thumbnail are served; bad requests get a 4
   }
 }
 
-TEST_CASE("Event streams beyond the bound are refused, not queued") {
+TEST_CASE("Event streams beyond the bound are refused and not queued") {
   ViewServerOptions options = TestOptions();
   options.max_clients = 1;
   ViewServer server(options);
