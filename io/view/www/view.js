@@ -556,29 +556,5 @@
       requestAnimationFrame(step);
     });
   };
-  // Test hook: a synthetic model of `n` points, drawn as a run's would be.
-  state.loadSyntheticPoints = function (n) {
-    const ids = new Array(n);
-    const xyz = new Float32Array(3 * n);
-    const rgb = new Uint8Array(3 * n);
-    for (let i = 0; i < n; ++i) {
-      ids[i] = i + 1;
-      const a = i * 2.399963;
-      const r = Math.sqrt(i / n) * 10;
-      xyz[3 * i] = r * Math.cos(a);
-      xyz[3 * i + 1] = Math.sin(i * 0.001) * 2;
-      xyz[3 * i + 2] = r * Math.sin(a) + 20;
-      rgb[3 * i] = 80 + (i % 170);
-      rgb[3 * i + 1] = 120;
-      rgb[3 * i + 2] = 200 - (i % 150);
-    }
-    if (n > capacity) allocate(count + n);
-    applyPoints({ ids: ids, xyz: xyz, rgb: rgb });
-    uploadPoints();
-    state.points = count;
-    fitAll();
-    requestRender();
-    return count;
-  };
   requestRender();
 })();
