@@ -292,6 +292,7 @@ bool Engine::Initialize(ImageResult* result) {
     reconstruction_.DeRegisterImage(pair.image_id1);
     reconstruction_.DeRegisterImage(pair.image_id2);
     for (const auto& [camera_id, camera] : cameras) reconstruction_.camera(camera_id) = camera;
+    reconstruction_.MarkCamerasChanged();
     initializer_.Discard(pair);
   }
   return false;

@@ -175,6 +175,9 @@ class Engine {
 
   const Options& options() const { return options_; }
   const Reconstruction& reconstruction() const { return reconstruction_; }
+  // What the model's changes were since the last call (the live view's
+  // incremental updates).
+  Reconstruction::Changes TakeReconstructionChanges() { return reconstruction_.TakeChanges(); }
   // What LSM keeps of the images (its memory, for benchmarks and tests).
   const LsmImageStore& lsm_images() const { return lsm_images_; }
   std::vector<std::string> PendingImageNames() const;

@@ -47,6 +47,7 @@ void Reconstruction::RegisterImage(image_t image_id, const Rigid3d& cam_from_wor
   Image& image = images_.at(image_id);
   if (!image.IsRegistered()) registered_.push_back(image_id);
   image.cam_from_world = cam_from_world;
+  changes_.changed_images.insert(image_id);
 }
 
 void Reconstruction::DeRegisterImage(image_t image_id) {
@@ -55,6 +56,7 @@ void Reconstruction::DeRegisterImage(image_t image_id) {
     if (image.points2D[idx].HasPoint3D()) DeleteObservation(image_id, idx);
   }
   image.cam_from_world.reset();
+  changes_.changed_images.insert(image_id);
   registered_.erase(std::remove(registered_.begin(), registered_.end(), image_id),
                     registered_.end());
 }
@@ -70,6 +72,8 @@ point3D_t Reconstruction::AddPoint3D(const Eigen::Vector3d& xyz,
   Point3D& point = points3D_[id];
   point.xyz = xyz;
   point.color = color;
+  changes_.removed_points.erase(id);
+  changes_.added_points.insert(id);
   for (const TrackElement& element : track) AddObservation(id, element);
   return id;
 }
@@ -83,6 +87,7 @@ void Reconstruction::AddObservation(point3D_t point3D_id,
   point2D.point3D_id = point3D_id;
   ++image.num_points3D;
   points3D_.at(point3D_id).track.push_back(element);
+  MarkPointChanged(point3D_id);
 }
 
 void Reconstruction::DeleteObservation(image_t image_id, point2D_t point2D_idx) {
@@ -96,7 +101,11 @@ void Reconstruction::DeleteObservation(image_t image_id, point2D_t point2D_idx) 
   track.erase(std::remove(track.begin(), track.end(),
                           TrackElement{image_id, point2D_idx}),
               track.end());
-  if (track.size() < 2) DeletePoint3D(point3D_id);
+  if (track.size() < 2) {
+    DeletePoint3D(point3D_id);
+  } else {
+    MarkPointChanged(point3D_id);
+  }
 }
 
 void Reconstruction::DeletePoint3D(point3D_t point3D_id) {
@@ -106,6 +115,23 @@ void Reconstruction::DeletePoint3D(point3D_t point3D_id) {
     --image.num_points3D;
   }
   points3D_.erase(point3D_id);
+  changes_.changed_points.erase(point3D_id);
+  // A point added and removed between two takes was never seen outside.
+  if (changes_.added_points.erase(point3D_id) == 0) {
+    changes_.removed_points.insert(point3D_id);
+  }
+}
+
+void Reconstruction::MarkPointChanged(point3D_t point3D_id) {
+  if (changes_.added_points.count(point3D_id) == 0) {
+    changes_.changed_points.insert(point3D_id);
+  }
+}
+
+Reconstruction::Changes Reconstruction::TakeChanges() {
+  Changes taken = std::move(changes_);
+  changes_ = Changes();
+  return taken;
 }
 
 point3D_t Reconstruction::MergePoints3D(point3D_t point3D_id1,
@@ -116,6 +142,7 @@ point3D_t Reconstruction::MergePoints3D(point3D_t point3D_id1,
   const double n1 = keep.track.size();
   const double n2 = gone.track.size();
   keep.xyz = (n1 * keep.xyz + n2 * gone.xyz) / (n1 + n2);
+  MarkPointChanged(point3D_id1);
   DeletePoint3D(point3D_id2);
   for (const TrackElement& element : gone.track) {
     const bool image_seen = std::any_of(
@@ -224,9 +251,13 @@ void Reconstruction::Transform(const Sim3d& new_from_old) {
   for (auto& [id, image] : images_) {
     if (image.IsRegistered()) {
       image.cam_from_world = TransformPose(new_from_old, *image.cam_from_world);
+      changes_.changed_images.insert(id);
     }
   }
-  for (auto& [id, point] : points3D_) point.xyz = new_from_old * point.xyz;
+  for (auto& [id, point] : points3D_) {
+    point.xyz = new_from_old * point.xyz;
+    MarkPointChanged(id);
+  }
 }
 
 namespace {

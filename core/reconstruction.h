@@ -3,6 +3,7 @@
 #include <istream>
 #include <map>
 #include <ostream>
+#include <set>
 #include <string>
 #include <unordered_map>
 #include <vector>
@@ -68,6 +69,27 @@ class Reconstruction {
   std::size_t NumPoints3D() const { return points3D_.size(); }
   std::size_t NumObservations() const;
 
+  // What changed since the last TakeChanges(), so that a consumer (the live
+  // view) can follow the model at the cost of the change, not of the model.
+  // A point id is in at most one of added / changed / removed: added wins
+  // over changed, and removing an added point forgets it.
+  struct Changes {
+    std::set<point3D_t> added_points;
+    std::set<point3D_t> changed_points;   // position, colour or track
+    std::set<point3D_t> removed_points;
+    std::set<image_t> changed_images;     // registered, pose moved, deregistered
+    bool changed_cameras = false;         // some intrinsics were written
+    bool empty() const {
+      return added_points.empty() && changed_points.empty() && removed_points.empty() &&
+             changed_images.empty() && !changed_cameras;
+    }
+  };
+  Changes TakeChanges();
+  // For writers outside this class (BA writes positions and intrinsics
+  // through the non-const accessors).
+  void MarkPointChanged(point3D_t point3D_id);
+  void MarkCamerasChanged() { changes_.changed_cameras = true; }
+
   // Reprojection error in pixels of `xyz` against the keypoint; infinity when
   // the point lies behind the camera. The image must be registered.
   double ReprojectionError(image_t image_id, point2D_t point2D_idx,
@@ -103,6 +125,7 @@ class Reconstruction {
   std::unordered_map<point3D_t, Point3D> points3D_;
   std::vector<image_t> registered_;
   point3D_t next_point3D_id_ = 1;
+  Changes changes_;
 };
 
 }  // namespace flysfm

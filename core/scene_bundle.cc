@@ -88,10 +88,12 @@ SceneBundleResult Adjust(const std::unordered_map<image_t, double>& weights,
   }
   for (std::size_t p = 0; p < point_ids.size(); ++p) {
     reconstruction->point3D(point_ids[p]).xyz = problem.points[p];
+    reconstruction->MarkPointChanged(point_ids[p]);
   }
   for (const auto& [camera_id, index] : camera_index) {
     reconstruction->camera(camera_id) = problem.cameras[index];
   }
+  if (!camera_index.empty()) reconstruction->MarkCamerasChanged();
   result.points = std::move(point_ids);
   return result;
 }

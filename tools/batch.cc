@@ -16,6 +16,7 @@ void AddBatchCommand(CLI::App& app) {
     int shuffle_seed = -1;
     double interval = 0;
     int max_images = 0;
+    bool view_keep = false;
   };
   auto flags = std::make_shared<Flags>();
   CLI::App* command = app.add_subcommand(
@@ -40,6 +41,8 @@ void AddBatchCommand(CLI::App& app) {
                       "Use only the first N images of the input (0: all)")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
+  command->add_flag("--view-keep", flags->view_keep,
+                    "With --view: keep serving the page after the run, until Ctrl-C");
   command->callback([flags]() {
     int exit_code = 0;
     try {
@@ -57,6 +60,7 @@ void AddBatchCommand(CLI::App& app) {
       Engine engine = flags->engine.MakeEngine();
       RunEngineOptions run_options;
       run_options.skipped_entries = int(skipped.size());
+      run_options.keep_view = flags->view_keep;
       exit_code = RunEngine(&source, &engine, flags->engine, run_options);
     } catch (const std::invalid_argument& e) {
       std::cerr << "flysfm batch: " << e.what() << "\n";

@@ -18,6 +18,8 @@ void AddDemoCommand(CLI::App& app);
 void AddEvalCommand(CLI::App& app);
 // flysfm live (--camfi HOST[:PORT] | --watch DIR) --out DIR
 void AddLiveCommand(CLI::App& app);
+// flysfm view OUT [--port P] [--lan]
+void AddViewCommand(CLI::App& app);
 // flysfm train-retrieval --images DIR [DIR ...] --out FILE
 void AddTrainRetrievalCommand(CLI::App& app);
 

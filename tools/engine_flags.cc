@@ -50,6 +50,7 @@ void AddEngineFlags(CLI::App* command, EngineFlags* flags) {
                       "Rewrite the model in --out at most this often while running")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
+  AddViewFlags(command, &flags->view);
 }
 
 Engine EngineFlags::MakeEngine() const {
@@ -121,6 +122,22 @@ int RunEngine(ImageSource* source, Engine* engine, const EngineFlags& flags,
   } else {
     checkpointer.Clear();
   }
+  // Started before the first image, so that a port in use fails the run at
+  // once rather than after it.
+  const std::unique_ptr<ViewServer> view = StartView(flags.view);
+  std::vector<ViewLine> view_lines;
+  // Each step's changes to the model, as the page draws them (docs/view.md).
+  const auto publish_view = [&] {
+    if (!view) return;
+    view->Publish(MakeViewUpdate(engine->reconstruction(), engine->TakeReconstructionChanges(),
+                                 std::move(view_lines)));
+    view_lines.clear();
+  };
+  if (view) {
+    // A resumed run's model so far, as one update.
+    engine->TakeReconstructionChanges();
+    view->Publish(MakeFullViewUpdate(engine->reconstruction()));
+  }
   auto last_refresh = start;
   const auto seconds_since = [](std::chrono::steady_clock::time_point t) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
@@ -155,6 +172,7 @@ int RunEngine(ImageSource* source, Engine* engine, const EngineFlags& flags,
         if (result.status == ImageStatus::kRegistered) delays_ms.push_back(*delay_ms);
       }
       PrintLine(counts.images_in, result, delay_ms);
+      if (view) view_lines.push_back(MakeViewLine(result, delay_ms));
       writer.Log(result);
       all.push_back(result);
     }
@@ -203,6 +221,7 @@ int RunEngine(ImageSource* source, Engine* engine, const EngineFlags& flags,
       ++counts.images_in;
       const std::string name = frame->frame.name;
       arrivals[name] = frame->frame.arrival;
+      if (view) view->SetLatestShot(frame->image);
       quarantine.BeginEngine(name);
       std::vector<ImageResult> results;
       const auto call_start = std::chrono::steady_clock::now();
@@ -224,6 +243,7 @@ int RunEngine(ImageSource* source, Engine* engine, const EngineFlags& flags,
       }
       report(results);
       checkpoint(call_ms, /*final=*/false);
+      publish_view();
       if (seconds_since(last_refresh) >= flags.refresh_seconds) {
         write_outputs(/*final=*/false);
         last_refresh = std::chrono::steady_clock::now();
@@ -237,6 +257,7 @@ int RunEngine(ImageSource* source, Engine* engine, const EngineFlags& flags,
                  error->c_str());
   }
   checkpoint(1000 * seconds_since(finish_start), /*final=*/true);
+  publish_view();
   const bool written = write_outputs(/*final=*/true);
   const Reconstruction& model = engine->reconstruction();
   std::printf("done: %d images in, %zu registered, %d rejected, %zu pending; %zu points, "
@@ -264,6 +285,14 @@ int RunEngine(ImageSource* source, Engine* engine, const EngineFlags& flags,
                      delays_ms.end());
     std::printf("median delay from arrival to registration: %.0f ms over %zu images\n",
                 delays_ms[delays_ms.size() / 2], delays_ms.size());
+  }
+  if (view) {
+    view->Finish();
+    if (options.keep_view) {
+      std::printf("view: the run is over; still serving %s until Ctrl-C\n", view->Url().c_str());
+      std::fflush(stdout);
+      WaitForInterrupt();
+    }
   }
   return written && !source_failed ? 0 : 1;
 }

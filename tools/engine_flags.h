@@ -13,6 +13,7 @@
 #include "core/engine.h"
 #include "io/run/run_writer.h"
 #include "io/sources/image_source.h"
+#include "tools/view_flags.h"
 
 namespace flysfm {
 
@@ -30,6 +31,7 @@ struct EngineFlags {
   bool resume = false;
   // DecodeOptions::max_image_pixels, in megapixels.
   double max_megapixels = DecodeOptions().max_image_pixels / 1e6;
+  ViewFlags view;  // --view [PORT], --view-lan
 
   // Throws std::invalid_argument with a one-line message for a bad camera or
   // an unreadable retrieval model.
@@ -46,6 +48,8 @@ struct RunEngineOptions {
   int skipped_entries = 0;
   // Engine::AddImage; a test puts a fault here.
   std::function<std::vector<ImageResult>(Engine*, PreparedFrame)> add_image;
+  // With --view: after the run, keep serving the page until Ctrl-C.
+  bool keep_view = false;
 };
 
 // Runs every frame of `source` through the engine, printing one line per

@@ -20,6 +20,7 @@ int main(int argc, char** argv) {
   flysfm::AddEvalCommand(app);
   flysfm::AddLiveCommand(app);
   flysfm::AddTrainRetrievalCommand(app);
+  flysfm::AddViewCommand(app);
   // A command's error that no command caught (the output folder in use,
   // say) is a one-line message, not std::terminate.
   try {

@@ -140,6 +140,54 @@ TEST_CASE("Deregistering an image removes its observations") {
   }
 }
 
+TEST_CASE("TakeChanges reports what changed since the last take and only that") {
+  Fixture f;
+  Reconstruction& r = f.reconstruction;
+  const Reconstruction::Changes built = r.TakeChanges();
+  CHECK(built.added_points.size() == r.NumPoints3D());
+  CHECK(built.changed_points.empty());  // added wins over the track's additions
+  CHECK(built.changed_images.size() == 6);
+  CHECK(r.TakeChanges().empty());
+
+  const point3D_t moved = f.point_ids[0];
+  const point3D_t gone = f.point_ids[1];
+  const std::vector<TrackElement> track = r.point3D(f.point_ids[2]).track;
+  REQUIRE(track.size() >= 3);
+  r.DeletePoint3D(gone);
+  r.point3D(moved).xyz += Eigen::Vector3d(0.1, 0, 0);
+  r.MarkPointChanged(moved);
+  // Take a point's track away and give it to a new point.
+  r.DeletePoint3D(f.point_ids[2]);
+  const point3D_t added = r.AddPoint3D(Eigen::Vector3d::Zero(), track);
+  // A point added then removed before the take was never visible.
+  const point3D_t transient = r.AddPoint3D(Eigen::Vector3d::Zero(), {});
+  r.DeletePoint3D(transient);
+  const image_t moved_image = testing::SceneImageId(3);
+  r.RegisterImage(moved_image, *r.image(moved_image).cam_from_world);
+
+  const Reconstruction::Changes changes = r.TakeChanges();
+  CHECK(changes.added_points == std::set<point3D_t>{added});
+  CHECK(changes.changed_points == std::set<point3D_t>{moved});
+  CHECK(changes.removed_points == std::set<point3D_t>{gone, f.point_ids[2]});
+  CHECK(changes.changed_images == std::set<image_t>{moved_image});
+  CHECK_FALSE(changes.changed_cameras);
+
+  // Deleting an observation changes the point's track, or removes a point
+  // left with one observation.
+  const std::vector<TrackElement> added_track = r.point3D(added).track;
+  r.DeleteObservation(added_track[0].image_id, added_track[0].point2D_idx);
+  CHECK(r.TakeChanges().changed_points == std::set<point3D_t>{added});
+  for (std::size_t i = 1; i + 1 < added_track.size(); ++i) {
+    r.DeleteObservation(added_track[i].image_id, added_track[i].point2D_idx);
+  }
+  CHECK(r.TakeChanges().removed_points == std::set<point3D_t>{added});
+
+  r.Transform(Sim3d(2.0, Eigen::Quaterniond::Identity(), Eigen::Vector3d::Zero()));
+  const Reconstruction::Changes all = r.TakeChanges();
+  CHECK(all.changed_points.size() == r.NumPoints3D());
+  CHECK(all.changed_images.size() == r.NumRegisteredImages());
+}
+
 }  // namespace
 }  // namespace flysfm
 

@@ -262,5 +262,25 @@ TEST_CASE("A local bundle keeps every observation of its points") {
   }
 }
 
+TEST_CASE("A local bundle reports what it moved to the model's change tracking") {
+  LocalScene local = MakeLocalScene();
+  const Tree tree = BuildTree(local, {});
+  Reconstruction& reconstruction = local.model.reconstruction;
+  reconstruction.TakeChanges();
+  const SceneBundleResult result = SolveLocal(tree, 0, &reconstruction);
+  REQUIRE_FALSE(result.points.empty());
+  const Reconstruction::Changes changes = reconstruction.TakeChanges();
+  // Every point the BA wrote, and only those; every refined image, and no
+  // image held constant.
+  CHECK(changes.changed_points ==
+        std::set<point3D_t>(result.points.begin(), result.points.end()));
+  CHECK(changes.added_points.empty());
+  CHECK(changes.removed_points.empty());
+  CHECK(changes.changed_cameras);
+  for (int i = 0; i < static_cast<int>(local.scene.cams_from_world.size()); ++i) {
+    CHECK(changes.changed_images.count(SceneImageId(i)) == (IsRefined(tree, i) ? 1u : 0u));
+  }
+}
+
 }  // namespace
 }  // namespace flysfm

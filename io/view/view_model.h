@@ -1,0 +1,119 @@
+#pragma once
+
+// What the live web view shows, apart from the HTTP that carries it: the
+// update one processed image makes (built from the model's changes, so its
+// size follows what the image changed, not the model), the view's own copy
+// of the model (kept current by those updates, so that a page connecting
+// mid-run is served without touching the engine's model), and the JSON
+// messages of the push protocol (docs/view.md).
+
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "core/image_result.h"
+#include "core/reconstruction.h"
+
+namespace flysfm {
+
+// One registered image drawn as a frustum.
+struct ViewCamera {
+  image_t image_id = kInvalidImageId;
+  camera_t camera_id = kInvalidCameraId;
+  std::string name;
+  // World to camera, as the model stores it.
+  Eigen::Quaterniond rotation = Eigen::Quaterniond::Identity();
+  Eigen::Vector3d translation = Eigen::Vector3d::Zero();
+};
+
+// A camera's intrinsics as far as a frustum needs them.
+struct ViewIntrinsics {
+  camera_t camera_id = kInvalidCameraId;
+  double focal = 0;
+  int width = 0;
+  int height = 0;
+};
+
+// The per-image line, as the terminal prints it.
+struct ViewLine {
+  std::string name;
+  std::string status;  // ImageStatusName
+  std::string reason;
+  int points = 0;
+  int new_points = 0;
+  double ms = 0;
+  std::optional<double> delay_ms;  // from the shot's arrival (live runs)
+};
+ViewLine MakeViewLine(const ImageResult& result, std::optional<double> delay_ms);
+
+// What one step of the engine changed, as the page needs it.
+struct ViewUpdate {
+  std::vector<ViewLine> lines;
+  std::vector<ViewCamera> cameras;        // newly registered or moved
+  std::vector<image_t> removed_cameras;   // deregistered
+  std::vector<ViewIntrinsics> intrinsics; // every camera, when any was refined
+  // Points added or moved: ids, xyz (3 per point), rgb (3 per point).
+  std::vector<point3D_t> point_ids;
+  std::vector<float> xyz;
+  std::vector<std::uint8_t> rgb;
+  std::vector<point3D_t> removed_points;
+  int num_images = 0;
+  int num_points = 0;
+};
+
+// The update for `changes` (Reconstruction::TakeChanges) of `model`, with the
+// lines of the images this step reported. Its cost is that of the changes.
+ViewUpdate MakeViewUpdate(const Reconstruction& model, const Reconstruction::Changes& changes,
+                          std::vector<ViewLine> lines);
+// The whole of `model` as one update: what `flysfm view` serves, and what a
+// run that starts from a resumed model begins with.
+ViewUpdate MakeFullViewUpdate(const Reconstruction& model);
+
+// The view's copy of the model, without its index: what a `model` message is
+// written from. Copying it is copying flat arrays.
+struct ViewSnapshot {
+  std::vector<point3D_t> point_ids;
+  std::vector<float> xyz;
+  std::vector<std::uint8_t> rgb;
+  std::map<image_t, ViewCamera> cameras;
+  std::map<camera_t, ViewIntrinsics> intrinsics;
+  // Image name -> why it waits / why it was rejected.
+  std::map<std::string, std::string> pending;
+  std::map<std::string, std::string> rejected;
+  std::optional<ViewLine> latest;
+  int num_images = 0;
+  int num_points = 0;
+  bool finished = false;
+};
+
+// The snapshot plus the point id -> array slot index that makes an update's
+// application O(changes): a removed point's slot is filled by the last one.
+class ViewModel {
+ public:
+  // Returns whether the pending or rejected lists changed.
+  bool Apply(const ViewUpdate& update);
+  void Finish() { snapshot_.finished = true; }
+  const ViewSnapshot& snapshot() const { return snapshot_; }
+
+ private:
+  void SetPoint(point3D_t id, const float* xyz, const std::uint8_t* rgb);
+  void RemovePoint(point3D_t id);
+
+  ViewSnapshot snapshot_;
+  std::unordered_map<point3D_t, std::size_t> slot_;
+};
+
+// The push protocol's messages, one JSON object each, on one line (an SSE
+// `data:` field may not hold a newline).
+std::string ModelMessage(const ViewSnapshot& snapshot);
+// `lists`: the pending and rejected lists to send along (they changed).
+std::string UpdateMessage(const ViewUpdate& update, const ViewSnapshot* lists);
+std::string EndMessage();
+
+}  // namespace flysfm

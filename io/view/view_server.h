@@ -1,0 +1,119 @@
+#pragma once
+
+// The live web view's HTTP server: the page, the system's three.js, the
+// latest shot as a thumbnail, and the model pushed as server-sent events
+// (docs/view.md). The engine thread publishes; HTTP worker threads serve.
+// Publishing never waits for a browser: it applies the update to the view's
+// own copy of the model and appends one shared message to each client's
+// bounded queue. A client whose queue overflows gets the whole model again
+// instead of what it missed (latest state wins).
+
+#include <atomic>
+#include <condition_variable>
+#include <cstdint>
+#include <list>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+
+#include <opencv2/core.hpp>
+
+#include "io/view/view_model.h"
+
+namespace httplib {
+class Server;
+}
+
+namespace flysfm {
+
+struct ViewServerOptions {
+  // 127.0.0.1: only this machine. With `lan`, 0.0.0.0 (a tablet on the same
+  // WiFi) and every request must carry ?token=<token>.
+  bool lan = false;
+  int port = 8090;  // 0: any free port (tests)
+  // The LAN token; empty: 128 random bits, in hex.
+  std::string token;
+  // Event streams served at once; each holds an HTTP worker thread.
+  int max_clients = 8;
+  // Messages waiting for one client before its queue is replaced by the
+  // whole model.
+  int max_queued_messages = 64;
+  // A comment is sent to an idle stream this often, so that a vanished
+  // browser is noticed and its worker freed.
+  double keepalive_seconds = 5.0;
+  // A browser that takes no bytes for this long is dropped.
+  double write_timeout_seconds = 5.0;
+  int thumbnail_width = 320;
+  // Debian's libjs-three (r111): the library and its orbit controls.
+  std::string three_js = "/usr/share/javascript/three/three.min.js";
+  std::string orbit_controls_js =
+      "/usr/share/javascript/three/examples/js/controls/OrbitControls.js";
+
+  // Throws std::invalid_argument naming the bad option.
+  void Check() const;
+};
+
+class ViewServer {
+ public:
+  // Reads three.js and binds; throws std::runtime_error with the reason (a
+  // missing libjs-three, a port in use).
+  explicit ViewServer(const ViewServerOptions& options);
+  ~ViewServer();
+  ViewServer(const ViewServer&) = delete;
+  ViewServer& operator=(const ViewServer&) = delete;
+
+  int port() const { return port_; }
+  const std::string& token() const { return token_; }
+  // The address to open, token included on the LAN (with this machine's
+  // name standing for its address).
+  std::string Url() const;
+
+  // Engine thread. Cost: the update's size, plus a copy of pointers per
+  // client; never a wait on a browser.
+  void Publish(const ViewUpdate& update);
+  // The latest shot (BGR); kept by reference, shrunk only when asked for.
+  // An empty image (a shot that could not be decoded) is ignored.
+  void SetLatestShot(const cv::Mat& image);
+  // The run is over: every client gets `end` after what it has. Waits up to
+  // `drain_seconds` for the open pages to receive it, so that a batch run
+  // that exits right after does not cut them off.
+  void Finish(double drain_seconds = 2.0);
+
+  // Event streams open now.
+  int num_clients() const;
+
+ private:
+  struct Client {
+    std::list<std::shared_ptr<const std::string>> queue;
+    bool needs_model = true;
+    bool delivered_end = false;
+  };
+  // The next bytes for `client`, waiting up to the keep-alive; empty when
+  // the server stops. `ends`: they close the stream (the run's `end`).
+  std::string NextChunk(const std::shared_ptr<Client>& client, bool* ends);
+  std::string Thumbnail();
+
+  ViewServerOptions options_;
+  std::string token_;
+  std::string three_js_;
+  std::string orbit_controls_js_;
+  std::unique_ptr<httplib::Server> http_;
+  int port_ = 0;
+  std::thread thread_;
+  std::atomic<bool> listen_returned_{false};
+
+  mutable std::mutex mutex_;
+  std::condition_variable wake_;
+  bool stopping_ = false;
+  ViewModel model_;
+  std::list<std::shared_ptr<Client>> clients_;
+
+  std::mutex shot_mutex_;
+  cv::Mat shot_;
+  std::uint64_t shot_sequence_ = 0;
+  std::uint64_t thumbnail_sequence_ = 0;
+  std::string thumbnail_;
+};
+
+}  // namespace flysfm

@@ -1,0 +1,153 @@
+#include "io/view/view_model.h"
+
+#include <limits>
+#include <set>
+
+#include <catch2/catch.hpp>
+#include <nlohmann/json.hpp>
+
+#include "tests/testing/scene_reconstruction.h"
+#include "tests/testing/synthetic.h"
+
+namespace flysfm {
+namespace {
+
+Reconstruction SceneModel() {
+  testing::SyntheticSceneOptions options;
+  options.num_images = 5;
+  options.num_points = 150;
+  return testing::ReconstructionFromScene(testing::MakeSyntheticScene(options)).reconstruction;
+}
+
+ViewLine Line(const std::string& name, ImageStatus status, const std::string& reason = "") {
+  ImageResult result;
+  result.name = name;
+  result.status = status;
+  result.reason = reason;
+  return MakeViewLine(result, std::nullopt);
+}
+
+// The snapshot's arrays say the same as the model: each id once, at its
+// own position.
+void CheckMirrors(const ViewSnapshot& snapshot, const Reconstruction& model) {
+  REQUIRE(snapshot.point_ids.size() == model.NumPoints3D());
+  REQUIRE(snapshot.xyz.size() == 3 * snapshot.point_ids.size());
+  REQUIRE(snapshot.rgb.size() == 3 * snapshot.point_ids.size());
+  std::set<point3D_t> seen;
+  for (std::size_t i = 0; i < snapshot.point_ids.size(); ++i) {
+    const point3D_t id = snapshot.point_ids[i];
+    CHECK(seen.insert(id).second);
+    REQUIRE(model.ExistsPoint3D(id));
+    for (int k = 0; k < 3; ++k) {
+      CHECK(snapshot.xyz[3 * i + k] == Approx(model.point3D(id).xyz[k]).margin(1e-5));
+    }
+  }
+  CHECK(snapshot.cameras.size() == model.NumRegisteredImages());
+}
+
+TEST_CASE("An update carries the changed points and cameras only") {
+  Reconstruction model = SceneModel();
+  model.TakeChanges();
+  const point3D_t moved = model.points3D().begin()->first;
+  model.point3D(moved).xyz += Eigen::Vector3d(0, 0, 1);
+  model.MarkPointChanged(moved);
+  const image_t image = testing::SceneImageId(1);
+  model.RegisterImage(image, *model.image(image).cam_from_world);
+
+  const ViewUpdate update = MakeViewUpdate(model, model.TakeChanges(), {});
+  CHECK(update.point_ids == std::vector<point3D_t>{moved});
+  CHECK(update.xyz.size() == 3);
+  CHECK(update.xyz[2] == Approx(model.point3D(moved).xyz.z()));
+  REQUIRE(update.cameras.size() == 1);
+  CHECK(update.cameras[0].image_id == image);
+  CHECK(update.removed_points.empty());
+  CHECK(update.intrinsics.empty());
+  CHECK(update.num_points == int(model.NumPoints3D()));
+  CHECK(update.num_images == 5);
+}
+
+TEST_CASE("The view's copy follows the model through additions and moves and removals") {
+  Reconstruction model = SceneModel();
+  ViewModel view;
+  view.Apply(MakeViewUpdate(model, model.TakeChanges(), {}));
+  CheckMirrors(view.snapshot(), model);
+
+  // Remove every third point (swap-remove fills their slots from the end),
+  // move some others, deregister an image.
+  std::vector<point3D_t> ids;
+  for (const auto& [id, point] : model.points3D()) ids.push_back(id);
+  for (std::size_t i = 0; i < ids.size(); ++i) {
+    if (i % 3 == 0) {
+      model.DeletePoint3D(ids[i]);
+    } else if (i % 3 == 1) {
+      model.point3D(ids[i]).xyz *= 2;
+      model.MarkPointChanged(ids[i]);
+    }
+  }
+  model.DeRegisterImage(testing::SceneImageId(4));
+  const ViewUpdate update = MakeViewUpdate(model, model.TakeChanges(), {});
+  CHECK(update.removed_cameras == std::vector<image_t>{testing::SceneImageId(4)});
+  view.Apply(update);
+  CheckMirrors(view.snapshot(), model);
+}
+
+TEST_CASE("Pending and rejected lists follow the per-image lines") {
+  ViewModel view;
+  ViewUpdate update;
+  update.lines = {Line("a.jpg", ImageStatus::kPending, "too few matches"),
+                  Line("b.jpg", ImageStatus::kRejected, "cannot decode")};
+  CHECK(view.Apply(update));
+  CHECK(view.snapshot().pending.at("a.jpg") == "too few matches");
+  CHECK(view.snapshot().rejected.at("b.jpg") == "cannot decode");
+  update.lines = {Line("a.jpg", ImageStatus::kRegistered)};
+  CHECK(view.Apply(update));
+  CHECK(view.snapshot().pending.empty());
+  CHECK(view.snapshot().latest->name == "a.jpg");
+  update.lines = {Line("c.jpg", ImageStatus::kRegistered)};
+  CHECK_FALSE(view.Apply(update));
+}
+
+TEST_CASE("Messages are one line of valid JSON whatever the names and numbers") {
+  ViewModel view;
+  ViewUpdate update;
+  update.lines = {Line("we\"ird\nname\xff.jpg", ImageStatus::kPending, "tab\there")};
+  update.point_ids = {7, 9};
+  update.xyz = {1.5f, -2.0f, std::numeric_limits<float>::quiet_NaN(), 0, 0, 1e30f};
+  update.rgb = {255, 0, 10, 1, 2, 3};
+  ViewCamera camera;
+  camera.image_id = 3;
+  camera.camera_id = 1;
+  camera.name = "c.jpg";
+  camera.translation = Eigen::Vector3d(1, 2, 3);
+  update.cameras = {camera};
+  update.intrinsics = {{1, 500.0, 640, 480}};
+  update.num_images = 1;
+  update.num_points = 2;
+  const bool lists_changed = view.Apply(update);
+  view.Finish();
+
+  const std::string update_text = UpdateMessage(update, lists_changed ? &view.snapshot() : nullptr);
+  const std::string model_text = ModelMessage(view.snapshot());
+  for (const std::string& text : {update_text, model_text, EndMessage()}) {
+    CHECK(text.find('\n') == std::string::npos);
+  }
+  const nlohmann::json u = nlohmann::json::parse(update_text);
+  CHECK(u["type"] == "update");
+  CHECK(u["points"]["ids"] == nlohmann::json({7, 9}));
+  CHECK(u["points"]["xyz"][2].is_null());
+  CHECK(u["points"]["rgb"][0] == 255);
+  CHECK(u["pending"].size() == 1);
+  CHECK(u["counts"]["points"] == 2);
+  const nlohmann::json m = nlohmann::json::parse(model_text);
+  CHECK(m["type"] == "model");
+  CHECK(m["finished"] == true);
+  CHECK(m["cameras"][0]["t"] == nlohmann::json({1.0, 2.0, 3.0}));
+  CHECK(m["cameras"][0]["q"][3] == 1.0);
+  CHECK(m["intrinsics"][0]["focal"] == 500.0);
+  CHECK(m["points"]["ids"].size() == 2);
+  CHECK(m["line"]["reason"] == "tab\there");
+  CHECK(nlohmann::json::parse(EndMessage())["type"] == "end");
+}
+
+}  // namespace
+}  // namespace flysfm

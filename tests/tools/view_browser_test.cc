@@ -1,0 +1,160 @@
+// The live view in a real browser: `flysfm batch --view` on a rendered scene,
+// the page loaded in headless chromium, and what the page shows compared with
+// the run's summary.json. Screenshots are kept (the path is printed).
+
+#include <signal.h>
+
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+
+#include <catch2/catch.hpp>
+#include <nlohmann/json.hpp>
+
+#include "io/synthetic/synthetic_source.h"
+#include "tests/testing/headless_browser.h"
+#include "tests/testing/skip.h"
+#include "tests/testing/temp_dir.h"
+#include "tests/tools/live_process.h"
+
+namespace flysfm {
+namespace {
+
+constexpr int kViews = 8;
+
+std::filesystem::path ArtifactDir() {
+  const std::filesystem::path dir = std::filesystem::path(FLYSFM_ARTIFACT_DIR) / "view";
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+// The rendered views as files, like a camera's card; returns the camera.
+std::string WriteCapture(const std::filesystem::path& dir) {
+  SyntheticCaptureOptions options;
+  options.num_views = kViews;
+  const SyntheticCapture capture = MakeSyntheticCapture(options);
+  std::filesystem::create_directories(dir);
+  for (const Frame& frame : capture.frames) {
+    std::ofstream out(dir / frame.name, std::ios::binary);
+    out.write(reinterpret_cast<const char*>(frame.bytes.data()),
+              std::streamsize(frame.bytes.size()));
+  }
+  return capture.camera.ToString();
+}
+
+std::filesystem::path Chromium() {
+  const std::optional<std::filesystem::path> chromium = testing::FindChromium();
+  if (!chromium) {
+    testing::SkipTest("no chromium on PATH (Debian package chromium; scripts/setup.sh "
+                      "installs it): the browser test of the live view cannot run");
+  }
+  return *chromium;
+}
+
+// The address `flysfm batch --view` printed.
+std::string ViewUrl(const std::filesystem::path& output) {
+  std::string url;
+  REQUIRE(testing::WaitUntil(
+      [&] {
+        const std::vector<std::string> lines = testing::LinesStartingWith(output, "view: http");
+        if (lines.empty()) return false;
+        url = lines.front().substr(6);
+        url = url.substr(0, url.find(' '));
+        return true;
+      },
+      60));
+  return url;
+}
+
+nlohmann::json PageState(testing::HeadlessBrowser& browser) {
+  return browser.Evaluate(
+      "(() => { const v = window.flysfmView; return {cameras: v.cameras, points: v.points, "
+      "images: v.images, modelPoints: v.modelPoints, finished: v.finished, errors: v.errors, "
+      "updates: v.updates, frameMs: v.frameMs, "
+      "imagesText: document.getElementById('images').textContent, "
+      "pointsText: document.getElementById('points').textContent}; })()");
+}
+
+// Waits for the run's end on the page and compares it with summary.json.
+void CheckFinishedPage(testing::HeadlessBrowser& browser, const std::filesystem::path& out,
+                       const std::filesystem::path& screenshot) {
+  const bool finished = browser.WaitFor("window.flysfmView && window.flysfmView.finished", 300);
+  // Kept whatever happens next: what the page showed is the first clue.
+  browser.Screenshot(screenshot);
+  std::cout << "view_browser_test: screenshot " << screenshot.string() << "\n";
+  REQUIRE(finished);
+  const nlohmann::json state = PageState(browser);
+  const nlohmann::json summary = nlohmann::json::parse(testing::ReadText(out / "summary.json"));
+  INFO("page " << state.dump() << "\nsummary " << summary.dump());
+  const int registered = summary["registered"].get<int>();
+  const int points = summary["points"].get<int>();
+  CHECK(registered >= 3);
+  CHECK(state["images"] == registered);
+  CHECK(state["modelPoints"] == points);
+  CHECK(state["imagesText"] == std::to_string(registered));
+  CHECK(state["pointsText"] == std::to_string(points));
+  CHECK(state["cameras"] == registered);
+  CHECK(state["points"] == points);
+  CHECK(state["errors"].empty());
+  for (const std::string& error : browser.errors()) FAIL_CHECK("browser: " << error);
+}
+
+struct Run {
+  std::filesystem::path dir;
+  std::filesystem::path out;
+  std::filesystem::path output;
+  pid_t pid = -1;
+};
+
+Run StartBatch(const std::string& name, double interval) {
+  Run run;
+  run.dir = testing::MakeTempDir(name);
+  const std::string camera = WriteCapture(run.dir / "shots");
+  run.out = run.dir / "out";
+  run.output = run.dir / "batch.txt";
+  run.pid = testing::SpawnFlysfm({"batch", (run.dir / "shots").string(), "--out",
+                                  run.out.string(), "--camera", camera, "--interval",
+                                  std::to_string(interval), "--view=0", "--view-keep"},
+                                 run.output);
+  return run;
+}
+
+void StopBatch(const Run& run) {
+  ::kill(run.pid, SIGINT);
+  const int code = testing::WaitForExit(run.pid, 30);
+  INFO(testing::ReadText(run.output));
+  CHECK(code == 0);
+}
+
+TEST_CASE("view: a page opened as the run starts ends showing the run's model") {
+  const std::filesystem::path chromium = Chromium();
+  const Run run = StartBatch("view_start", 0.2);
+  const std::string url = ViewUrl(run.output);
+  {
+    testing::HeadlessBrowser browser(chromium, run.dir / "profile");
+    browser.Navigate(url);
+    CheckFinishedPage(browser, run.out, ArtifactDir() / "view_start.png");
+  }
+  StopBatch(run);
+}
+
+TEST_CASE("view: a page opened mid-run gets the model so far and then the rest") {
+  const std::filesystem::path chromium = Chromium();
+  const Run run = StartBatch("view_mid_run", 1.5);
+  const std::string url = ViewUrl(run.output);
+  // Half the shots processed before the page opens.
+  REQUIRE(testing::WaitUntil(
+      [&] { return testing::LinesStartingWith(run.out / "log.jsonl", "{").size() >= kViews / 2; },
+      120));
+  {
+    testing::HeadlessBrowser browser(chromium, run.dir / "profile");
+    browser.Navigate(url);
+    CheckFinishedPage(browser, run.out, ArtifactDir() / "view_mid_run.png");
+    // It came in mid-run: the model first, then updates for the later shots.
+    CHECK(PageState(browser)["updates"].get<int>() >= 1);
+  }
+  StopBatch(run);
+}
+
+}  // namespace
+}  // namespace flysfm
