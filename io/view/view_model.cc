@@ -36,20 +36,12 @@ void AppendPoint(const Reconstruction& model, point3D_t id, ViewUpdate* update) 
 }
 
 // Numbers written by hand: a model message holds millions of them, and
-// building a JSON tree for each would cost more than the message.
-void AppendNumber(double value, std::string* out) {
+// building a JSON tree for each would cost more than the message. Floats are
+// written with a float's shortest round-trip digits, not a double's.
+template <typename T>
+void AppendNumber(T value, std::string* out) {
   if (!std::isfinite(value)) {
     *out += "null";  // JSON has no NaN; a page must not fail on one point
-    return;
-  }
-  char buffer[32];
-  const auto result = std::to_chars(buffer, buffer + sizeof(buffer), value);
-  out->append(buffer, result.ptr);
-}
-
-void AppendFloat(float value, std::string* out) {
-  if (!std::isfinite(value)) {
-    *out += "null";
     return;
   }
   char buffer[32];
@@ -77,7 +69,7 @@ void AppendFloats(const char* key, const std::vector<float>& values, std::string
   *out += "\":[";
   for (std::size_t i = 0; i < values.size(); ++i) {
     if (i > 0) *out += ',';
-    AppendFloat(values[i], out);
+    AppendNumber(values[i], out);
   }
   *out += ']';
 }
