@@ -97,6 +97,7 @@ void Checkpointer::Restore(Engine* engine) {
 
 void Checkpointer::Clear() {
   std::filesystem::remove_all(dir_);
+  folders_made_ = false;
   last_recorded_ = 0;
   retrieval_model_version_ = 0;
   awaiting_windows_.clear();
@@ -106,9 +107,12 @@ void Checkpointer::Clear() {
 void Checkpointer::Update(const Engine& engine, double engine_ms, bool final) {
   engine_ms_since_snapshot_ += engine_ms;
   auto start = std::chrono::steady_clock::now();
-  std::filesystem::create_directories(dir_ / "images");
-  std::filesystem::create_directories(dir_ / "windows");
-  std::filesystem::create_directories(dir_ / "retrieval");
+  if (!folders_made_) {
+    for (const char* folder : {"images", "windows", "retrieval"}) {
+      std::filesystem::create_directories(dir_ / folder);
+    }
+    folders_made_ = true;
+  }
   const auto& images = engine.reconstruction().images();
   for (auto it = images.upper_bound(last_recorded_); it != images.end(); ++it) {
     const image_t image_id = it->first;

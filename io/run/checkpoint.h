@@ -77,6 +77,8 @@ class Checkpointer {
   int retrieval_model_version_ = 0;
   std::set<image_t> awaiting_windows_;
   double engine_ms_since_snapshot_ = 0;
+  // The folders exist: not asked of the file system at every image.
+  bool folders_made_ = false;
   bool snapshot_due_ = false;
 };
 

@@ -74,6 +74,20 @@ void AppendFloats(const char* key, const std::vector<float>& values, std::string
   *out += ']';
 }
 
+// "points":{"ids":[...],"xyz":[...],"rgb":[...]}, as model and update
+// messages both carry them.
+template <typename Id, typename Colour>
+void AppendPoints(const std::vector<Id>& ids, const std::vector<float>& xyz,
+                  const std::vector<Colour>& rgb, std::string* out) {
+  *out += "\"points\":{";
+  AppendIntegers("ids", ids, out);
+  *out += ',';
+  AppendFloats("xyz", xyz, out);
+  *out += ',';
+  AppendIntegers("rgb", rgb, out);
+  *out += '}';
+}
+
 void AppendString(const std::string& value, std::string* out) {
   // nlohmann's escaping; invalid UTF-8 in a file name is replaced, not thrown.
   *out += nlohmann::json(value).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
@@ -283,13 +297,9 @@ std::string ModelMessage(const ViewSnapshot& snapshot) {
   std::vector<ViewIntrinsics> intrinsics;
   for (const auto& [id, k] : snapshot.intrinsics) intrinsics.push_back(k);
   AppendIntrinsics(intrinsics, &out);
-  out += ",\"points\":{";
-  AppendIntegers("ids", snapshot.point_ids, &out);
   out += ',';
-  AppendFloats("xyz", snapshot.xyz, &out);
+  AppendPoints(snapshot.point_ids, snapshot.xyz, snapshot.rgb, &out);
   out += ',';
-  AppendIntegers("rgb", snapshot.rgb, &out);
-  out += "},";
   AppendNamedReasons("pending", snapshot.pending, &out);
   out += ',';
   AppendNamedReasons("rejected", snapshot.rejected, &out);
@@ -323,13 +333,9 @@ std::string UpdateMessage(const ViewUpdate& update, const ViewSnapshot* lists) {
   AppendIntegers("removed_cameras", update.removed_cameras, &out);
   out += ',';
   AppendIntrinsics(update.intrinsics, &out);
-  out += ",\"points\":{";
-  AppendIntegers("ids", update.point_ids, &out);
   out += ',';
-  AppendFloats("xyz", update.xyz, &out);
+  AppendPoints(update.point_ids, update.xyz, update.rgb, &out);
   out += ',';
-  AppendIntegers("rgb", update.rgb, &out);
-  out += "},";
   AppendIntegers("removed_points", update.removed_points, &out);
   if (lists) {
     out += ',';
