@@ -206,11 +206,23 @@ Matrix6d PriorSqrtInformation(const Matrix6d& information, double weight) {
   return root.asDiagonal() * eigen.eigenvectors().transpose();
 }
 
+class StopCallback : public ceres::IterationCallback {
+ public:
+  explicit StopCallback(const std::function<bool()>& should_stop) : should_stop_(should_stop) {}
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary&) override {
+    return should_stop_() ? ceres::SOLVER_TERMINATE_SUCCESSFULLY : ceres::SOLVER_CONTINUE;
+  }
+
+ private:
+  const std::function<bool()>& should_stop_;
+};
+
 BundleAdjuster::Termination ToTermination(const ceres::Solver::Summary& summary) {
   if (!summary.IsSolutionUsable()) return BundleAdjuster::Termination::kFailure;
   switch (summary.termination_type) {
-    case ceres::CONVERGENCE:
-    case ceres::USER_SUCCESS: return BundleAdjuster::Termination::kConvergence;
+    case ceres::CONVERGENCE: return BundleAdjuster::Termination::kConvergence;
+    // Only Options::should_stop ends a solve this way.
+    case ceres::USER_SUCCESS:
     case ceres::NO_CONVERGENCE: return BundleAdjuster::Termination::kNoConvergence;
     default: return BundleAdjuster::Termination::kFailure;
   }
@@ -457,6 +469,9 @@ BundleAdjuster::Summary BundleAdjuster::Solve(BundleProblem* problem) const {
   solver_options.num_threads = options_.num_threads;
   solver_options.logging_type = ceres::SILENT;
   solver_options.minimizer_progress_to_stdout = false;
+
+  StopCallback stop_callback(options_.should_stop);
+  if (options_.should_stop) solver_options.callbacks.push_back(&stop_callback);
 
   ceres::Solver::Summary ceres_summary;
   ceres::Solve(solver_options, &ceres_problem, &ceres_summary);

@@ -3,6 +3,7 @@
 // Bundle adjustment of a BundleProblem with Ceres: local (a hierarchical
 // association tree's block, see association_tree.h) and global alike.
 
+#include <functional>
 #include <string>
 
 #include "bundle/bundle_problem.h"
@@ -62,13 +63,18 @@ class BundleAdjuster {
     // The engine's loop is single-threaded; the second core decodes and
     // extracts features of the next image.
     int num_threads = 1;
+    // Polled after each iteration; when it returns true the solve ends there,
+    // its result usable (kNoConvergence). The engine's refinement between
+    // shots gives way to a new image this way. Empty: never.
+    std::function<bool()> should_stop;
 
     bool Check() const;
   };
 
   enum class Termination {
     kConvergence,    // a tolerance was met
-    kNoConvergence,  // iteration or time limit: the result is usable
+    kNoConvergence,  // iteration or time limit, or should_stop: the result is
+                     // usable
     kFailure,        // numerical failure: the problem is left at its last
                      // accepted state
   };

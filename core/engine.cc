@@ -57,6 +57,7 @@ bool Engine::Options::Check(std::string* problem) const {
       {self_calibration_growth == 0 || self_calibration_growth > 1,
        "self_calibration_growth (0 or > 1)"},
       {self_calibration_converged_change >= 0, "self_calibration_converged_change (>= 0)"},
+      {refinement.Check(), "refinement"},
   };
   for (const auto& [ok, name] : checks) {
     if (!ok) {
@@ -210,6 +211,15 @@ std::vector<ImageResult> Engine::AddImage(PreparedFrame prepared) {
     ScopedStageTimer timer(&results[0].times.lsm);
     KeepLsmWindows();
   }
+
+  // 13. What refinement between shots (Refine) has to do now.
+  refinement_.to_match.push_back(image_id);
+  if (std::any_of(results.begin(), results.end(), [this](const ImageResult& result) {
+        return reconstruction_.image(result.image_id).IsRegistered();
+      })) {
+    refinement_.adjust = true;
+    refinement_.num_adjustments = 0;
+  }
   if (results[0].status != ImageStatus::kRegistered && results[0].reason.empty()) {
     results[0].reason = "no initial pair yet";
   }
@@ -251,6 +261,7 @@ void Engine::VerifyPairs(image_t image_id, const std::vector<RetrievalCandidate>
   for (const RetrievalCandidate& candidate : candidates) {
     if (initialized_ && result->num_verified_pairs >= options_.max_verified_pairs) break;
     const image_t other_id = candidate.image_id;
+    refinement_.tried_pairs.insert(ImagePairKey(image_id, other_id));
     PairVerification pair = verifier_.Verify(
         image_id, features_.at(image_id).descriptors, other_id,
         features_.at(other_id).descriptors, lsm_refined, &result->times);
@@ -456,9 +467,7 @@ ImageResult Engine::ResultFor(image_t image_id) const {
 
 std::vector<ImageResult> Engine::Finish() {
   pending_.ForgetTries();
-  std::vector<ImageResult> results(1);  // a placeholder for "the new image"
-  RetryPending(&results);
-  results.erase(results.begin());
+  std::vector<ImageResult> results = RetryWaiting();
   for (ImageResult& result : results) Finalize(&result);
   if (options_.final_global_ba && reconstruction_.NumRegisteredImages() >= 2) {
     AdjustGlobalBundle(options_.global_ba, &reconstruction_);

@@ -6,6 +6,7 @@
 // registrar, triangulator, pending pool), as COLMAP splits its incremental
 // mapper. Single-threaded and deterministic for a given input order.
 
+#include <deque>
 #include <filesystem>
 #include <functional>
 #include <istream>
@@ -15,6 +16,7 @@
 #include <ostream>
 #include <string>
 #include <tuple>
+#include <unordered_set>
 #include <unordered_map>
 #include <vector>
 
@@ -115,6 +117,41 @@ class Engine {
     double self_calibration_growth = 1.25;
     double self_calibration_converged_change = 0.002;
 
+    // Refinement between shots (Engine::Refine; docs/engine.md, "Refinement
+    // between shots"): what COLMAP does with all photos at hand, done while
+    // the engine would otherwise wait for the next one.
+    struct Refinement {
+      // Off: the model is what each AddImage left, and Finish's global BA.
+      bool enabled = true;
+      // Each image is matched with retrieval's top this many; its arrival
+      // stopped at max_verified_pairs verified. On a set of up to this many
+      // images plus one the match graph becomes exhaustive.
+      int candidates_per_image = 30;
+      // A slice's work at most: pairs verified, or images triangulated. A
+      // slice also ends as soon as an image waits, so these bound the wait
+      // of a new image (one pair or one image's triangulation at most).
+      int pairs_per_slice = 8;
+      int images_per_slice = 16;
+      // After a global BA, every image's tracks are continued, completed and
+      // merged again, and its free keypoints triangulated (observations the
+      // filter dropped, rays that were too close before). While that changes
+      // more than this share of the observations, another global BA follows,
+      // at most `max_adjustments` in a row without a new image (COLMAP's
+      // mapper iterates the same way).
+      double min_changed_observations = 0.005;
+      int max_adjustments = 3;
+      // Beyond this many registered images the BA refines only the images
+      // registered last (whose poses only local BAs have seen) and their
+      // points, the rest held: a BA iteration, which a new image may have to
+      // wait for, then costs the same at image 50 and at image 500 (on
+      // fr1_xyz, a global BA iteration over 330 frames took about 1.6 s).
+      // While guessed intrinsics converge the BA stays global.
+      int max_adjusted_images = 50;
+
+      bool Check() const;
+    };
+    Refinement refinement;
+
     // True when every option is in range; otherwise false, and `problem`
     // (when given) names the first bad option.
     bool Check(std::string* problem = nullptr) const;
@@ -142,8 +179,51 @@ class Engine {
   std::vector<ImageResult> AddImage(const Frame& frame);
   std::vector<ImageResult> AddImage(PreparedFrame prepared);
 
+  // One slice of refinement, for when no image is waiting (live: between
+  // shots; batch: between paced images and at the end). Each call does the
+  // first of these that has work, in this order:
+  //   kMatch: candidate pairs of retrieval that were not tried yet;
+  //   kTriangulate: images with new verified pairs (continuation,
+  //     completion, merging, new tracks), then a try of waiting images;
+  //   kAdjust: a global BA (beyond refinement.max_adjusted_images, one of
+  //     the images registered last) when the model changed since the last
+  //     one, and a filter of every point;
+  //   kRetriangulate: every registered image's tracks again.
+  // kNone: nothing to do until the next image. `should_yield` is polled
+  // between pairs, images and BA iterations; when it turns true the slice
+  // ends early (an unfinished BA is run again later). Without it, the
+  // sequence of slices depends only on the images given.
+  struct RefinementSlice {
+    enum class Step { kNone, kMatch, kTriangulate, kAdjust, kRetriangulate };
+    Step step = Step::kNone;
+    int num_pairs_tried = 0;
+    int num_pairs_verified = 0;
+    int num_images_triangulated = 0;
+    Triangulator::Summary triangulation;
+    bool global_ba = false;
+    BundleAdjuster::Summary ba;
+    // Waiting images that registered in this slice.
+    std::vector<ImageResult> registered;
+  };
+  RefinementSlice Refine(const std::function<bool()>& should_yield = {});
+  // Refine() until nothing is left: the end of a run that refined between
+  // images. Returns the images registered meanwhile.
+  std::vector<ImageResult> RefineToEnd();
+  // What refinement did so far, RefineToEnd's included.
+  struct RefinementTotals {
+    int num_slices = 0;
+    int num_pairs_tried = 0;
+    int num_pairs_verified = 0;
+    int num_global_bas = 0;
+    double ms = 0;
+  };
+  const RefinementTotals& refinement_totals() const { return refinement_.totals; }
+
   // End of a batch: pending images get a last try, then the optional global
-  // BA. Returns results for images registered by the last try.
+  // BA. Returns results for images registered by the last try. A run that
+  // refines between images refines until nothing is left before this
+  // (RunEngine); one fed as fast as the engine goes had no idle time, and
+  // gets the global BA alone.
   std::vector<ImageResult> Finish();
 
   // Checkpointing (docs/engine.md, "Resume"). The state splits into what
@@ -208,6 +288,13 @@ class Engine {
   void AdjustWhileSelfCalibrating(ImageResult* result);
   // Step 12: the images LSM will not search again keep only windows.
   void KeepLsmWindows();
+  // RetryPending with no new image (refinement, Finish).
+  std::vector<ImageResult> RetryWaiting();
+  // The steps of Refine.
+  void MatchMorePairs(const std::function<bool()>& should_yield, RefinementSlice* slice);
+  void TriangulateQueued(std::deque<image_t>* images, const std::function<bool()>& should_yield,
+                         RefinementSlice* slice);
+  void AdjustEverything(const std::function<bool()>& should_yield, RefinementSlice* slice);
   int NumRegisteredNeighbours(image_t image_id) const;
   std::vector<int> RetrievalNeighbours(image_t image_id, int n) const;
   ImageResult ResultFor(image_t image_id) const;
@@ -236,6 +323,28 @@ class Engine {
   // the model size that triggers the next global BA.
   std::map<camera_t, int> self_calibrating_;
   std::size_t next_self_calibration_images_ = 0;
+
+  // What refinement has left to do. Of it only the pairs tried at each
+  // image's arrival are checkpointed (in its record): a restored engine
+  // tries every other candidate pair again, and adjusts once.
+  struct RefinementState {
+    // Images whose retrieval candidates are not all tried, in arrival
+    // order; the pairs tried so far, on arrival or later (ImagePairKey).
+    std::deque<image_t> to_match;
+    std::unordered_set<std::uint64_t> tried_pairs;
+    // Images with new verified pairs, ascending.
+    std::deque<image_t> to_triangulate;
+    // The model changed since the last global BA of the refinement.
+    bool adjust = false;
+    int num_adjustments = 0;  // in a row, without a new image
+    // Registered images to triangulate again after that BA, and the
+    // observations it left.
+    std::deque<image_t> to_retriangulate;
+    std::size_t observations_after_adjust = 0;
+    int merged_since_adjust = 0;
+    RefinementTotals totals;
+  };
+  RefinementState refinement_;
 };
 
 }  // namespace flysfm

@@ -15,7 +15,7 @@ namespace {
 
 constexpr char kImageRecordMagic[9] = "FSIMAGE1";
 constexpr char kSnapshotMagic[9] = "FSENGINE";
-constexpr std::uint32_t kCheckpointVersion = 1;
+constexpr std::uint32_t kCheckpointVersion = 2;
 
 std::string CameraText(const std::optional<Camera>& camera) {
   return camera ? camera->ToString() : std::string("unknown intrinsics");
@@ -31,7 +31,8 @@ void Engine::WriteImageRecord(image_t image_id, std::ostream& out) const {
   WriteString(out, file.empty() ? std::string() : std::filesystem::absolute(file).string());
   WriteFeatureSet(out, features_.at(image_id));
   // Pairs are verified when their newer image arrives: the matches with
-  // older images are all this image will ever have written for it.
+  // older images are all this image will ever have written for it. Those
+  // refinement verifies later are tried again after a restore.
   std::vector<image_t> older;
   for (const image_t other_id : matches_.Neighbours(image_id)) {
     if (other_id < image_id) older.push_back(other_id);
@@ -41,6 +42,14 @@ void Engine::WriteImageRecord(image_t image_id, std::ostream& out) const {
     WriteValue(out, other_id);
     WriteVector(out, matches_.Matches(image_id, other_id));
   }
+  // And the older images it was tried with, verified or not, which
+  // refinement does not try again.
+  std::vector<image_t> tried;
+  for (const auto& [other_id, other] : reconstruction_.images()) {
+    if (other_id >= image_id) break;
+    if (refinement_.tried_pairs.count(ImagePairKey(image_id, other_id))) tried.push_back(other_id);
+  }
+  WriteVector(out, tried);
 }
 
 void Engine::WriteSnapshot(std::ostream& out) const {
@@ -111,6 +120,14 @@ void Engine::Restore(std::istream& snapshot, const CheckpointFiles& files) {
       }
       matches_.SetMatches(image_id, other_id, std::move(matches));
     }
+    for (const image_t other_id :
+         ReadVector<image_t>(*record, "tried pairs", std::size_t(1) << 24)) {
+      if (other_id >= image_id || !features_.count(other_id)) {
+        throw std::runtime_error("the checkpoint's record of image " + image.name +
+                                 " has a bad tried pair");
+      }
+      refinement_.tried_pairs.insert(ImagePairKey(image_id, other_id));
+    }
   }
   const int model_version = ReadValue<int>(snapshot, "retrieval model version");
   const std::unique_ptr<std::istream> model =
@@ -166,6 +183,12 @@ void Engine::Restore(std::istream& snapshot, const CheckpointFiles& files) {
         return grey;
       },
       files.windows);
+  // Refinement starts over: the pairs it tried are not checkpointed, and
+  // are tried again between the next shots.
+  for (const auto& [image_id, image] : reconstruction_.images()) {
+    refinement_.to_match.push_back(image_id);
+  }
+  refinement_.adjust = initialized_;
 }
 
 }  // namespace flysfm

@@ -39,6 +39,13 @@ class Triangulator {
     int num_continued = 0;  // observations of the image added to existing tracks
     int num_completed = 0;  // observations of other images added to tracks
     int num_merged = 0;     // points joined into another
+
+    void Add(const Summary& other) {
+      num_new_points += other.num_new_points;
+      num_continued += other.num_continued;
+      num_completed += other.num_completed;
+      num_merged += other.num_merged;
+    }
   };
 
   // The colour of a keypoint, for new points.

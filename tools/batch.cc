@@ -61,6 +61,7 @@ void AddBatchCommand(CLI::App& app) {
       RunEngineOptions run_options;
       run_options.skipped_entries = int(skipped.size());
       run_options.keep_view = flags->view_keep;
+      run_options.refine_between_images = flags->interval > 0;
       exit_code = RunEngine(&source, &engine, flags->engine, run_options);
     } catch (const std::invalid_argument& e) {
       std::cerr << "flysfm batch: " << e.what() << "\n";

@@ -43,14 +43,13 @@ void AddDemoCommand(CLI::App& app) {
     if (engine_flags.camera.empty()) engine_flags.camera = capture.camera.ToString();
     Engine engine = engine_flags.MakeEngine();
     FrameListSource source(capture.frames, flags->interval);
-    RunEngine(&source, &engine, engine_flags);
+    RunEngineOptions run_options;
+    run_options.refine_between_images = flags->interval > 0;
+    RunEngine(&source, &engine, engine_flags, run_options);
 
-    std::map<std::string, Eigen::Vector3d> truth;
-    for (std::size_t i = 0; i < capture.frames.size(); ++i) {
-      truth[capture.frames[i].name] = ProjectionCenter(capture.cams_from_world[i]);
-    }
     const Reconstruction& model = engine.reconstruction();
-    const std::optional<PositionErrors> errors = CompareCentersByName(model, truth);
+    const std::optional<PositionErrors> errors =
+        CompareCentersByName(model, capture.CameraCentres());
     const double extent = flags->capture.path_length;
     const bool all_registered = model.NumRegisteredImages() == capture.frames.size();
     const bool accurate = errors && errors->rmse < 0.005 * extent;

@@ -38,6 +38,15 @@ void AddEngineFlags(CLI::App* command, EngineFlags* flags) {
   }
   command->add_flag("--no-global-ba", flags->no_global_ba,
                     "Skip the global bundle adjustment at the end");
+  command->add_flag("--no-refinement", flags->no_refinement,
+                    "Do not refine the model between images (more pairs matched, tracks "
+                    "completed and merged, global BAs); the model is then what each image's "
+                    "registration left, and the global BA at the end");
+  command->add_option("--refinement-share", flags->refinement_share,
+                      "Share of the engine's core that refinement may take while no image "
+                      "waits: after a slice of t seconds it rests t (1/share - 1) seconds")
+      ->check(CLI::Range(0.01, 1.0))
+      ->capture_default_str();
   command->add_flag("--retry-quarantined", flags->retry_quarantined,
                     "Give the images in OUT/quarantine.tsv (a previous run died or the "
                     "engine failed on them) another try");
@@ -60,6 +69,7 @@ Engine EngineFlags::MakeEngine() const {
     if (it != ablations.end() && it->second) ablation.apply(&options);
   }
   options.final_global_ba = !no_global_ba;
+  options.refinement.enabled = !no_refinement;
   options.decode.max_image_pixels = max_megapixels * 1e6;
   std::optional<Camera> known_camera;
   if (!camera.empty()) known_camera = Camera::FromString(camera, 0, 0);
@@ -186,6 +196,7 @@ int RunEngine(ImageSource* source, Engine* engine, const EngineFlags& flags,
   const auto write_outputs = [&](bool final) {
     counts.quarantined = filtered.num_skipped();
     counts.in_model = filtered.num_in_model();
+    counts.refinement = engine->refinement_totals();
     try {
       if (!writer.MayReplaceOutputs(engine->reconstruction(), final)) return true;
       writer.WriteModel(engine->reconstruction());
@@ -206,11 +217,33 @@ int RunEngine(ImageSource* source, Engine* engine, const EngineFlags& flags,
     };
   }
   bool source_failed = false;
+  bool refinement_failed = false;
   {
     // The next image is decoded and its features extracted on the second
     // core while the engine works on this one.
     PreparedFrameSource prepared(&filtered, engine->options());
+    const auto refine_while_idle = [&] {
+      if (refinement_failed) return;
+      const std::optional<std::string> error = ErrorOf([&] {
+        RefineUntilNextFrame(engine, prepared, flags.refinement_share,
+                             [&](Engine::RefinementSlice* slice) {
+                               report(slice->registered);
+                               publish_view();
+                               if (seconds_since(last_refresh) >= flags.refresh_seconds) {
+                                 write_outputs(/*final=*/false);
+                                 last_refresh = std::chrono::steady_clock::now();
+                               }
+                             });
+      });
+      if (error) {
+        ++counts.engine_errors;
+        refinement_failed = true;
+        std::fprintf(stderr, "engine error while refining: %s; no more refinement in this "
+                     "run\n", error->c_str());
+      }
+    };
     while (true) {
+      if (options.refine_between_images) refine_while_idle();
       std::optional<PreparedFrame> frame;
       if (const std::optional<std::string> error = ErrorOf([&] { frame = prepared.Next(); })) {
         std::fprintf(stderr, "the image source failed: %s; finishing with what it gave\n",
@@ -251,6 +284,16 @@ int RunEngine(ImageSource* source, Engine* engine, const EngineFlags& flags,
     }
   }
   const auto finish_start = std::chrono::steady_clock::now();
+  if (options.refine_between_images && !refinement_failed) {
+    // The source is done: what refinement has left, at once (a second
+    // Ctrl-C in live quits; the checkpoint holds every image).
+    const std::optional<std::string> error =
+        ErrorOf([&] { report(engine->RefineToEnd()); });
+    if (error) {
+      ++counts.engine_errors;
+      std::fprintf(stderr, "engine error while refining: %s\n", error->c_str());
+    }
+  }
   if (const std::optional<std::string> error = ErrorOf([&] { report(engine->Finish()); })) {
     ++counts.engine_errors;
     std::fprintf(stderr, "engine error while finishing: %s; the model is written as it is\n",

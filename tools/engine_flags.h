@@ -23,6 +23,10 @@ struct EngineFlags {
   // Per EngineAblations() flag, whether it was given.
   std::map<std::string, bool> ablations;
   bool no_global_ba = false;
+  // Refinement between images (Engine::Refine): off, or the share of the
+  // engine's core it may take while no image waits (1: all of it).
+  bool no_refinement = false;
+  double refinement_share = 1.0;
   std::string out;
   double refresh_seconds = 2.0;
   bool retry_quarantined = false;
@@ -50,6 +54,10 @@ struct RunEngineOptions {
   std::function<std::vector<ImageResult>(Engine*, PreparedFrame)> add_image;
   // With --view: after the run, keep serving the page until Ctrl-C.
   bool keep_view = false;
+  // Refine the model while no image waits (unless --no-refinement); else
+  // only at the end. A batch fed as fast as the engine goes refines at the
+  // end only, so that its model does not depend on the machine's speed.
+  bool refine_between_images = true;
 };
 
 // Runs every frame of `source` through the engine, printing one line per

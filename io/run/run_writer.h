@@ -35,6 +35,7 @@ struct RunCounts {
   int resumed_images = 0;   // images the checkpointed model held at the start
   int in_model = 0;         // frames skipped as the resumed model held them
   double checkpoint_ms = 0; // writing the checkpoint, in all
+  Engine::RefinementTotals refinement;
 };
 
 class RunWriter {

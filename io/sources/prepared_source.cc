@@ -1,5 +1,7 @@
 #include "io/sources/prepared_source.h"
 
+#include <cmath>
+
 #include <opencv2/core/utility.hpp>
 
 namespace flysfm {
@@ -47,6 +49,24 @@ std::optional<PreparedFrame> PreparedFrameSource::Next() {
     exhausted_ = true;
   }
   return prepared;
+}
+
+bool PreparedFrameSource::WaitReady(std::chrono::milliseconds timeout) const {
+  return exhausted_ || next_.wait_for(timeout) == std::future_status::ready;
+}
+
+void RefineUntilNextFrame(Engine* engine, const PreparedFrameSource& source, double share,
+                          const std::function<void(Engine::RefinementSlice*)>& on_slice) {
+  const auto frame_ready = [&source] { return source.WaitReady(); };
+  while (!frame_ready()) {
+    const auto start = std::chrono::steady_clock::now();
+    Engine::RefinementSlice slice = engine->Refine(frame_ready);
+    if (slice.step == Engine::RefinementSlice::Step::kNone) return;
+    on_slice(&slice);
+    const std::chrono::duration<double> worked = std::chrono::steady_clock::now() - start;
+    const double rest_s = worked.count() * (1 / share - 1);
+    if (rest_s > 0) source.WaitReady(std::chrono::milliseconds(std::llround(1000 * rest_s)));
+  }
 }
 
 }  // namespace flysfm

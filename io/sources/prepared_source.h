@@ -5,6 +5,8 @@
 // on another thread (ARCHITECTURE.md: the loop itself stays single-threaded
 // and deterministic; only Engine::Prepare, which needs no model, runs ahead).
 
+#include <chrono>
+#include <functional>
 #include <future>
 #include <optional>
 
@@ -28,6 +30,9 @@ class PreparedFrameSource {
   // An exception while preparing a frame makes it a frame with `error` set
   // (the engine's counted rejection); one from the source is rethrown.
   std::optional<PreparedFrame> Next();
+  // Whether Next() would return at once (the next frame is prepared, or the
+  // source is exhausted), after waiting at most `timeout` for it.
+  bool WaitReady(std::chrono::milliseconds timeout = std::chrono::milliseconds(0)) const;
 
  private:
   std::optional<PreparedFrame> FetchAndPrepare();
@@ -37,5 +42,15 @@ class PreparedFrameSource {
   std::future<std::optional<PreparedFrame>> next_;
   bool exhausted_ = false;
 };
+
+// Refinement slices (Engine::Refine) while `source` has no frame ready, each
+// ending as soon as one is: a new image waits for one step of a slice at
+// most. After a slice of t seconds it rests t (1/share - 1) seconds, or
+// until a frame is ready: refinement takes at most `share` (0, 1] of the
+// engine's core. `on_slice` sees each slice that did something. Returns
+// when a frame is ready or nothing is left to refine; an exception of the
+// engine propagates.
+void RefineUntilNextFrame(Engine* engine, const PreparedFrameSource& source, double share,
+                          const std::function<void(Engine::RefinementSlice*)>& on_slice);
 
 }  // namespace flysfm

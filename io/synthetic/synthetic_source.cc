@@ -45,4 +45,12 @@ SyntheticCapture MakeSyntheticCapture(const SyntheticCaptureOptions& options) {
   return capture;
 }
 
+std::map<std::string, Eigen::Vector3d> SyntheticCapture::CameraCentres() const {
+  std::map<std::string, Eigen::Vector3d> centres;
+  for (std::size_t i = 0; i < frames.size(); ++i) {
+    centres[frames[i].name] = ProjectionCenter(cams_from_world[i]);
+  }
+  return centres;
+}
+
 }  // namespace flysfm

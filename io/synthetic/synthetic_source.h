@@ -7,6 +7,8 @@
 // truth.
 
 #include <cstdint>
+#include <map>
+#include <string>
 #include <vector>
 
 #include "core/frame.h"
@@ -35,6 +37,10 @@ struct SyntheticCapture {
   // frames[i] ("view<100+i>.png", PNG bytes) was shot from cams_from_world[i].
   std::vector<Frame> frames;
   std::vector<Rigid3d> cams_from_world;
+
+  // Each frame's camera centre by frame name: the ground truth of
+  // CompareCentersByName.
+  std::map<std::string, Eigen::Vector3d> CameraCentres() const;
 };
 
 // Throws std::invalid_argument for invalid options.

@@ -370,12 +370,16 @@ TEST_CASE("Points seen only by constant images stay constant") {
   }
 }
 
-TEST_CASE("An iteration limit ends the solve early with a usable result") {
+// 8 images and 200 points, perturbed: a solve of several iterations.
+BundleProblem SmallPerturbedProblem() {
   testing::SyntheticSceneOptions scene_options;
   scene_options.num_images = 8;
   scene_options.num_points = 200;
-  const testing::SyntheticScene scene = testing::MakeSyntheticScene(scene_options);
-  BundleProblem problem = PerturbedArcProblem(scene);
+  return PerturbedArcProblem(testing::MakeSyntheticScene(scene_options));
+}
+
+TEST_CASE("An iteration limit ends the solve early with a usable result") {
+  BundleProblem problem = SmallPerturbedProblem();
   BundleAdjuster::Options options;
   options.max_num_iterations = 1;
   const BundleAdjuster::Summary summary = BundleAdjuster(options).Solve(&problem);
@@ -385,6 +389,21 @@ TEST_CASE("An iteration limit ends the solve early with a usable result") {
   CHECK(summary.final_cost < summary.initial_cost);
   CHECK(summary.final_mean_reprojection_error_px <
         summary.initial_mean_reprojection_error_px);
+}
+
+TEST_CASE("should_stop ends the solve after the iteration it turns true in, usable") {
+  BundleProblem problem = SmallPerturbedProblem();
+  BundleAdjuster::Options options;
+  int polls = 0;
+  // Ceres polls once after evaluating the start (iteration 0), then after
+  // each iteration.
+  options.should_stop = [&polls] { return ++polls == 3; };
+  const BundleAdjuster::Summary summary = BundleAdjuster(options).Solve(&problem);
+  CHECK(polls == 3);
+  CHECK(summary.num_iterations == 2);
+  CHECK(summary.termination == BundleAdjuster::Termination::kNoConvergence);
+  CHECK(summary.IsSolutionUsable());
+  CHECK(summary.final_cost < summary.initial_cost);
 }
 
 TEST_CASE("Options are checked") {

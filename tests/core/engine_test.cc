@@ -19,11 +19,8 @@ namespace {
 
 // Centre RMSE of the registered images after Sim3 alignment to the truth.
 double CenterRmse(const Reconstruction& reconstruction, const SyntheticCapture& capture) {
-  std::map<std::string, Eigen::Vector3d> truth;
-  for (std::size_t i = 0; i < capture.frames.size(); ++i) {
-    truth[capture.frames[i].name] = ProjectionCenter(capture.cams_from_world[i]);
-  }
-  const std::optional<PositionErrors> errors = CompareCentersByName(reconstruction, truth);
+  const std::optional<PositionErrors> errors =
+      CompareCentersByName(reconstruction, capture.CameraCentres());
   REQUIRE(errors);
   return errors->rmse;
 }

@@ -271,6 +271,42 @@ TEST_CASE("batch --resume continues the checkpointed model and extends a finishe
   CHECK(testing::ReadText(out / "state" / "snapshot.bin") == "junk");
 }
 
+TEST_CASE("Paced images are refined between them, and the summary counts it; "
+          "--no-refinement refines nothing") {
+  const fs::path dir = testing::MakeTempDir("run_engine_refine");
+  Camera camera;
+  std::vector<Frame> frames = RenderedFolder(dir / "images", &camera);
+  frames.resize(6);
+  for (const bool refine : {true, false}) {
+    const fs::path out = dir / (refine ? "on" : "off");
+    EngineFlags flags = Flags(out);
+    flags.camera = camera.ToString();
+    flags.no_refinement = !refine;
+    Engine engine = flags.MakeEngine();
+    // Refinement slices done before each image, as the run gave them.
+    std::vector<int> slices_before;
+    RunEngineOptions options;
+    options.add_image = [&](Engine* engine, PreparedFrame frame) {
+      slices_before.push_back(engine->refinement_totals().num_slices);
+      return engine->AddImage(std::move(frame));
+    };
+    // One image a second: the engine is idle most of each interval.
+    FrameListSource source(frames, 1.0);
+    REQUIRE(RunEngine(&source, &engine, flags, options) == 0);
+    const nlohmann::json summary = Summary(out);
+    CHECK(summary["registered"] == frames.size());
+    REQUIRE(slices_before.size() == frames.size());
+    if (refine) {
+      CHECK(slices_before.back() > 0);
+      CHECK(summary["refinement"]["slices"].get<int>() > slices_before.back());
+      CHECK(summary["refinement"]["global_bas"].get<int>() >= 1);
+    } else {
+      CHECK(slices_before.back() == 0);
+      CHECK(summary["refinement"]["slices"] == 0);
+    }
+  }
+}
+
 TEST_CASE("A second flysfm on the same --out fails at once, naming the first") {
   const fs::path dir = testing::MakeTempDir("run_engine_lock");
   testing::WriteTestJpegs(dir / "images", kImages);

@@ -60,6 +60,28 @@ class WaitingSource : public ImageSource {
   bool stopped_ = false;
 };
 
+TEST_CASE("WaitReady tells whether the next frame is prepared, waiting at most as long as "
+          "asked") {
+  SyntheticCaptureOptions capture_options;
+  capture_options.num_views = 2;
+  // The second frame is due 3 s after the first: well after the first is
+  // prepared, even under a sanitizer.
+  FrameListSource source(MakeSyntheticCapture(capture_options).frames, 3.0);
+  PreparedFrameSource prepared(&source, Engine::Options());
+  REQUIRE(prepared.WaitReady(std::chrono::seconds(5)));
+  REQUIRE(prepared.Next());
+  const auto start = std::chrono::steady_clock::now();
+  CHECK_FALSE(prepared.WaitReady());
+  CHECK_FALSE(prepared.WaitReady(std::chrono::milliseconds(100)));
+  CHECK(std::chrono::steady_clock::now() - start < std::chrono::seconds(2));
+  CHECK(prepared.WaitReady(std::chrono::seconds(5)));
+  REQUIRE(prepared.Next());
+  // The end of the list is ready at once, and stays so.
+  CHECK(prepared.WaitReady(std::chrono::seconds(5)));
+  CHECK_FALSE(prepared.Next());
+  CHECK(prepared.WaitReady());
+}
+
 TEST_CASE("Leaving the engine loop early does not wait for the next shot") {
   WaitingSource source;
   const auto start = std::chrono::steady_clock::now();

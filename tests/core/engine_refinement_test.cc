@@ -1,0 +1,257 @@
+// Engine::Refine: refinement between shots, in slices that give way to a new
+// image, on a rendered capture with exact poses.
+
+#include <algorithm>
+#include <map>
+#include <memory>
+#include <vector>
+
+#include <catch2/catch.hpp>
+
+#include "core/engine.h"
+#include "io/evaluation/evaluation.h"
+#include "io/synthetic/synthetic_source.h"
+
+namespace flysfm {
+namespace {
+
+using Step = Engine::RefinementSlice::Step;
+
+const SyntheticCapture& Capture() {
+  static const SyntheticCapture capture = [] {
+    SyntheticCaptureOptions options;
+    options.num_views = 12;
+    options.seed = 7;
+    return MakeSyntheticCapture(options);
+  }();
+  return capture;
+}
+
+// Rendered pixels are exact up to interpolation: centres within 0.5 % of
+// the walk.
+const double kCenterTolerance = 0.005 * SyntheticCaptureOptions().path_length;
+
+double CenterRmse(const Reconstruction& reconstruction) {
+  const std::optional<PositionErrors> errors =
+      CompareCentersByName(reconstruction, Capture().CameraCentres());
+  REQUIRE(errors);
+  return errors->rmse;
+}
+
+// Arrival stops after two verified pairs, which leaves refinement most of
+// the match graph to complete.
+Engine::Options FewPairsOnArrival() {
+  Engine::Options options;
+  options.max_verified_pairs = 2;
+  return options;
+}
+
+void AddAll(Engine* engine) {
+  for (const Frame& frame : Capture().frames) {
+    const std::vector<ImageResult> results = engine->AddImage(frame);
+    REQUIRE_FALSE(results.empty());
+  }
+}
+
+// Slices until there is nothing to do; their steps in order.
+std::vector<Engine::RefinementSlice> RefineAll(Engine* engine) {
+  std::vector<Engine::RefinementSlice> slices;
+  for (int i = 0; i < 10000; ++i) {
+    Engine::RefinementSlice slice = engine->Refine();
+    if (slice.step == Step::kNone) return slices;
+    slices.push_back(std::move(slice));
+  }
+  FAIL("refinement does not end");
+  return slices;
+}
+
+TEST_CASE("Refinement matches the pairs arrival skipped, then triangulates, adjusts and "
+          "retriangulates, and ends") {
+  Engine engine(FewPairsOnArrival(), Capture().camera);
+  AddAll(&engine);
+  REQUIRE(engine.reconstruction().NumRegisteredImages() == Capture().frames.size());
+  const double track_length_before = engine.reconstruction().MeanTrackLength();
+
+  const std::vector<Engine::RefinementSlice> slices = RefineAll(&engine);
+  REQUIRE_FALSE(slices.empty());
+  // Steps come in the documented order: every match slice first, then the
+  // triangulation of the images with new pairs, then the BA and the
+  // retriangulation, BA and retriangulation again while they change enough.
+  std::size_t i = 0;
+  int tried = 0, verified = 0;
+  for (; i < slices.size() && slices[i].step == Step::kMatch; ++i) {
+    tried += slices[i].num_pairs_tried;
+    verified += slices[i].num_pairs_verified;
+    CHECK(slices[i].num_pairs_tried <= engine.options().refinement.pairs_per_slice);
+  }
+  // 12 images, 66 pairs, all within retrieval's top 30: arrival tried each
+  // image's candidates until two verified (at least one each for the 11
+  // after the first), refinement tries the rest, each pair once.
+  CHECK(tried > 20);
+  CHECK(tried <= 66 - 11);
+  CHECK(verified > 0);
+  REQUIRE(i < slices.size());
+  CHECK(slices[i].step == Step::kTriangulate);
+  for (; i < slices.size() && slices[i].step == Step::kTriangulate; ++i) {
+    CHECK(slices[i].num_images_triangulated <= engine.options().refinement.images_per_slice);
+  }
+  REQUIRE(i < slices.size());
+  int num_adjustments = 0;
+  for (; i < slices.size(); ++i) {
+    const Step step = slices[i].step;
+    REQUIRE((step == Step::kAdjust || step == Step::kRetriangulate));
+    if (step == Step::kAdjust) {
+      ++num_adjustments;
+      CHECK(slices[i].global_ba);
+      CHECK(slices[i].ba.IsSolutionUsable());
+      CHECK(slices[i].ba.num_images == int(Capture().frames.size()));
+    }
+  }
+  CHECK(num_adjustments >= 1);
+  CHECK(num_adjustments <= engine.options().refinement.max_adjustments);
+  CHECK(slices.back().step == Step::kRetriangulate);
+
+  // The wider match graph makes longer tracks, and the model stays exact.
+  CHECK(engine.reconstruction().MeanTrackLength() > track_length_before);
+  CHECK(CenterRmse(engine.reconstruction()) < kCenterTolerance);
+  CHECK(engine.reconstruction().MeanReprojectionError() < 0.5);
+
+  const Engine::RefinementTotals& totals = engine.refinement_totals();
+  CHECK(totals.num_slices == int(slices.size()));
+  CHECK(totals.num_pairs_tried == tried);
+  CHECK(totals.num_pairs_verified == verified);
+  CHECK(totals.num_global_bas == num_adjustments);
+  CHECK(totals.ms > 0);
+
+  // Nothing left until a new image.
+  CHECK(engine.Refine().step == Step::kNone);
+  CHECK(engine.RefineToEnd().empty());
+  CHECK(engine.refinement_totals().num_slices == int(slices.size()));
+}
+
+TEST_CASE("A slice gives way at once when an image waits") {
+  Engine engine(FewPairsOnArrival(), Capture().camera);
+  AddAll(&engine);
+  const auto image_waiting = [] { return true; };
+  // One unit of work each: a pair, an image, a BA iteration.
+  Engine::RefinementSlice slice = engine.Refine(image_waiting);
+  REQUIRE(slice.step == Step::kMatch);
+  CHECK(slice.num_pairs_tried == 1);
+  // (The last may find no pair left to try.)
+  while ((slice = engine.Refine(image_waiting)).step == Step::kMatch) {
+    CHECK(slice.num_pairs_tried <= 1);
+  }
+  REQUIRE(slice.step == Step::kTriangulate);
+  CHECK(slice.num_images_triangulated == 1);
+  while ((slice = engine.Refine(image_waiting)).step == Step::kTriangulate) {
+    CHECK(slice.num_images_triangulated == 1);
+  }
+  REQUIRE(slice.step == Step::kAdjust);
+  CHECK(slice.ba.num_iterations <= 1);
+  CHECK(slice.ba.IsSolutionUsable());
+  // A BA that gave way is due again.
+  CHECK(engine.Refine(image_waiting).step == Step::kAdjust);
+  // Left alone, it completes.
+  CHECK(engine.Refine().step == Step::kAdjust);
+  CHECK(engine.Refine(image_waiting).step == Step::kRetriangulate);
+}
+
+TEST_CASE("A new image starts refinement again, with its own pairs") {
+  Engine engine(FewPairsOnArrival(), Capture().camera);
+  const std::vector<Frame>& frames = Capture().frames;
+  for (std::size_t i = 0; i + 1 < frames.size(); ++i) engine.AddImage(frames[i]);
+  RefineAll(&engine);
+  REQUIRE(engine.Refine().step == Step::kNone);
+  engine.AddImage(frames.back());
+  const std::vector<Engine::RefinementSlice> slices = RefineAll(&engine);
+  REQUIRE_FALSE(slices.empty());
+  CHECK(slices.front().step == Step::kMatch);
+  CHECK(slices.front().num_pairs_tried >= 1);
+  CHECK(std::any_of(slices.begin(), slices.end(),
+                    [](const Engine::RefinementSlice& slice) { return slice.global_ba; }));
+}
+
+TEST_CASE("A registration alone makes a global BA due, with no pair left to try") {
+  // Arrival tries every pair of 5 images (fewer than max_verified_pairs).
+  Engine engine(Engine::Options(), Capture().camera);
+  for (std::size_t i = 0; i < 5; ++i) engine.AddImage(Capture().frames[i]);
+  REQUIRE(engine.reconstruction().NumRegisteredImages() == 5);
+  const std::vector<Engine::RefinementSlice> slices = RefineAll(&engine);
+  int tried = 0;
+  for (const Engine::RefinementSlice& slice : slices) tried += slice.num_pairs_tried;
+  CHECK(tried == 0);
+  CHECK(std::any_of(slices.begin(), slices.end(),
+                    [](const Engine::RefinementSlice& slice) { return slice.global_ba; }));
+}
+
+TEST_CASE("Beyond max_adjusted_images the BA refines the images registered last, the rest "
+          "held") {
+  Engine::Options options = FewPairsOnArrival();
+  options.refinement.max_adjusted_images = 5;
+  Engine engine(options, Capture().camera);
+  AddAll(&engine);
+  int num_adjustments = 0;
+  for (const Engine::RefinementSlice& slice : RefineAll(&engine)) {
+    if (!slice.global_ba) continue;
+    ++num_adjustments;
+    CHECK(slice.ba.num_free_images == 5);
+    CHECK(slice.ba.num_images > 5);  // held images observing the block's points
+    CHECK(slice.ba.IsSolutionUsable());
+  }
+  CHECK(num_adjustments >= 1);
+  CHECK(CenterRmse(engine.reconstruction()) < kCenterTolerance);
+}
+
+TEST_CASE("Refinement is deterministic for the same images and slices") {
+  const auto run = [] {
+    auto engine = std::make_unique<Engine>(FewPairsOnArrival(), Capture().camera);
+    const std::vector<Frame>& frames = Capture().frames;
+    // Slices between images too, as a paced run gives.
+    for (const Frame& frame : frames) {
+      engine->AddImage(frame);
+      for (int i = 0; i < 3; ++i) engine->Refine();
+    }
+    engine->RefineToEnd();
+    engine->Finish();
+    return engine;
+  };
+  const std::unique_ptr<Engine> a = run();
+  const std::unique_ptr<Engine> b = run();
+  REQUIRE(a->reconstruction().NumRegisteredImages() == b->reconstruction().NumRegisteredImages());
+  CHECK(a->reconstruction().NumPoints3D() == b->reconstruction().NumPoints3D());
+  for (const image_t id : a->reconstruction().RegisteredImageIds()) {
+    const Rigid3d& pose_a = *a->reconstruction().image(id).cam_from_world;
+    const Rigid3d& pose_b = *b->reconstruction().image(id).cam_from_world;
+    CHECK(pose_a.rotation.coeffs() == pose_b.rotation.coeffs());
+    CHECK(pose_a.translation == pose_b.translation);
+  }
+}
+
+TEST_CASE("Refinement switched off does nothing") {
+  Engine::Options options = FewPairsOnArrival();
+  options.refinement.enabled = false;
+  Engine engine(options, Capture().camera);
+  AddAll(&engine);
+  CHECK(engine.Refine().step == Step::kNone);
+  CHECK(engine.RefineToEnd().empty());
+  engine.Finish();
+  CHECK(engine.refinement_totals().num_slices == 0);
+  CHECK(CenterRmse(engine.reconstruction()) < kCenterTolerance);
+}
+
+TEST_CASE("Refinement options are checked") {
+  Engine::Options options;
+  std::string problem;
+  options.refinement.pairs_per_slice = 0;
+  CHECK_FALSE(options.Check(&problem));
+  CHECK(problem.find("refinement") != std::string::npos);
+  options = Engine::Options();
+  options.refinement.min_changed_observations = -1;
+  CHECK_FALSE(options.Check(&problem));
+  options = Engine::Options();
+  options.refinement.max_adjusted_images = 1;
+  CHECK_FALSE(options.Check(&problem));
+}
+
+}  // namespace
+}  // namespace flysfm
