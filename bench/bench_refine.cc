@@ -1,7 +1,9 @@
 // Refinement between shots: the accuracy a paced run reaches with
 // refinement off and on, COLMAP 3.8's on the same photos in the same run
 // (where `colmap` is installed), and the latency of each image from its
-// arrival to its result, off and on. Ends with one line of JSON.
+// arrival to its result, off and on, split for the images registered on
+// arrival into their own stages after SIFT and the time they waited (for a
+// refinement unit to end). Ends with one line of JSON.
 //
 //   bench_refine [--data DIR] [--sets fountain,temple,fr3,fr1] [--interval S]
 //                [--fr1-intervals S,S] [--fr1-frames N] [--no-colmap]
@@ -85,6 +87,11 @@ double Percentile(std::vector<double> values, double p) {
 struct Run {
   Accuracy accuracy;
   std::vector<double> latency_ms;  // arrival to result, per registered image
+  // Of the images registered on arrival: the time of their own stages after
+  // SIFT, and the time they waited (for the image before them, or for a
+  // refinement step to end), which is the latency less all their stages.
+  std::vector<double> own_ms;
+  std::vector<double> delay_ms;
   Engine::RefinementTotals refinement;
   double finish_s = 0;
   double wall_s = 0;
@@ -99,24 +106,29 @@ Run RunPaced(const DataSet& set, bool refine, double interval_s) {
   PreparedFrameSource prepared(&source, engine.options());
   std::map<std::string, std::chrono::steady_clock::time_point> arrivals;
   Run run;
-  const auto note = [&](const std::vector<ImageResult>& results) {
+  const auto note = [&](const std::vector<ImageResult>& results, bool on_arrival) {
     const auto now = std::chrono::steady_clock::now();
     for (const ImageResult& result : results) {
       if (result.status != ImageStatus::kRegistered) continue;
-      run.latency_ms.push_back(
-          std::chrono::duration<double, std::milli>(now - arrivals.at(result.name)).count());
+      const double latency =
+          std::chrono::duration<double, std::milli>(now - arrivals.at(result.name)).count();
+      run.latency_ms.push_back(latency);
+      if (!on_arrival || result.name != results.front().name) continue;
+      const StageTimes& times = result.times;
+      run.own_ms.push_back(times.total - times.decode - times.features);
+      run.delay_ms.push_back(latency - times.total);
     }
   };
   while (true) {
     RefineUntilNextFrame(&engine, prepared, 1.0,
-                         [&](Engine::RefinementSlice* slice) { note(slice->registered); });
+                         [&](Engine::RefinementSlice* slice) { note(slice->registered, false); });
     std::optional<PreparedFrame> frame = prepared.Next();
     if (!frame) break;
     arrivals[frame->frame.name] = frame->frame.arrival;
-    note(engine.AddImage(std::move(*frame)));
+    note(engine.AddImage(std::move(*frame)), true);
   }
   const auto finish_start = std::chrono::steady_clock::now();
-  note(engine.RefineToEnd());
+  note(engine.RefineToEnd(), false);
   engine.Finish();
   const auto end = std::chrono::steady_clock::now();
   run.finish_s = std::chrono::duration<double>(end - finish_start).count();
@@ -229,10 +241,15 @@ nlohmann::json ToJson(const Run& run, const char* unit, double scale) {
            {{"median", Percentile(run.latency_ms, 0.5)},
             {"p95", Percentile(run.latency_ms, 0.95)},
             {"max", Percentile(run.latency_ms, 1.0)}}},
+          {"own_ms",
+           {{"median", Percentile(run.own_ms, 0.5)}, {"p95", Percentile(run.own_ms, 0.95)}}},
+          {"delay_ms",
+           {{"median", Percentile(run.delay_ms, 0.5)}, {"p95", Percentile(run.delay_ms, 0.95)}}},
           {"refinement",
            {{"slices", run.refinement.num_slices},
             {"pairs_tried", run.refinement.num_pairs_tried},
             {"pairs_verified", run.refinement.num_pairs_verified},
+            {"pairs_linked", run.refinement.num_pairs_linked},
             {"global_bas", run.refinement.num_global_bas},
             {"ms", run.refinement.ms}}},
           {"finish_s", run.finish_s},
@@ -279,8 +296,9 @@ int main(int argc, char** argv) {
 
   nlohmann::json json = {{"bench", "refine"}, {"sets", nlohmann::json::array()}};
   std::printf("| set | interval | registered off / on | error off | error on | COLMAP 3.8 | "
-              "latency ms off: median / p95 / max | on | refinement: slices, pairs "
-              "verified / tried, global BAs, s |\n|---|---|---|---|---|---|---|---|---|\n");
+              "latency ms off: median / p95 / max (own stages after SIFT: median; waited: "
+              "median / p95) | on | refinement: slices, pairs verified / tried (linked, not "
+              "tried), global BAs, s |\n|---|---|---|---|---|---|---|---|---|\n");
   for (const std::string& key : sets) {
     DataSet set;
     try {
@@ -321,9 +339,11 @@ int main(int argc, char** argv) {
         return std::string(text);
       };
       const auto latency = [](const Run& run) {
-        char text[64];
-        std::snprintf(text, sizeof(text), "%.0f / %.0f / %.0f", Percentile(run.latency_ms, 0.5),
-                      Percentile(run.latency_ms, 0.95), Percentile(run.latency_ms, 1.0));
+        char text[96];
+        std::snprintf(text, sizeof(text), "%.0f / %.0f / %.0f (own %.0f, waited %.0f / %.0f)",
+                      Percentile(run.latency_ms, 0.5), Percentile(run.latency_ms, 0.95),
+                      Percentile(run.latency_ms, 1.0), Percentile(run.own_ms, 0.5),
+                      Percentile(run.delay_ms, 0.5), Percentile(run.delay_ms, 0.95));
         return std::string(text);
       };
       std::string colmap_text = colmap && set.colmap ? "failed" : "not run";
@@ -332,14 +352,15 @@ int main(int argc, char** argv) {
                       std::to_string(colmap_accuracy->registered) + " reg., " +
                       std::to_string(int(colmap_s)) + " s)";
       }
-      std::printf("| %s | %.3g s | %d / %d of %zu | %s | %s | %s | %s | %s | %d, %d / %d, %d, "
-                  "%.1f |\n",
+      std::printf("| %s | %.3g s | %d / %d of %zu | %s | %s | %s | %s | %s | %d, %d / %d "
+                  "(%d linked), %d, %.1f |\n",
                   set.name.c_str(), interval, off.accuracy.registered, on.accuracy.registered,
                   set.frames.size(), error(off.accuracy.error_m).c_str(),
                   error(on.accuracy.error_m).c_str(), colmap_text.c_str(), latency(off).c_str(),
                   latency(on).c_str(), on.refinement.num_slices,
                   on.refinement.num_pairs_verified, on.refinement.num_pairs_tried,
-                  on.refinement.num_global_bas, on.refinement.ms / 1000);
+                  on.refinement.num_pairs_linked, on.refinement.num_global_bas,
+                  on.refinement.ms / 1000);
       std::fflush(stdout);
       nlohmann::json entry = {{"set", set.name},
                               {"images", set.frames.size()},

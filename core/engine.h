@@ -125,8 +125,15 @@ class Engine {
       bool enabled = true;
       // Each image is matched with retrieval's top this many; its arrival
       // stopped at max_verified_pairs verified. On a set of up to this many
-      // images plus one the match graph becomes exhaustive.
+      // images plus one the match graph becomes exhaustive, but for the
+      // pairs already linked (max_shared_points).
       int candidates_per_image = 30;
+      // A candidate pair whose images already observe this many points in
+      // common, through tracks the model joined, is not matched: its matches
+      // would mostly repeat what those tracks hold (neighbours in a video, or
+      // photos a few steps apart), at the cost of a verification each. A
+      // revisit whose tracks were never joined shares few or none, and is.
+      int max_shared_points = 100;
       // A slice's work at most: pairs verified, or images triangulated. A
       // slice also ends as soon as an image waits, so these bound the wait
       // of a new image (one pair or one image's triangulation at most).
@@ -198,6 +205,8 @@ class Engine {
     Step step = Step::kNone;
     int num_pairs_tried = 0;
     int num_pairs_verified = 0;
+    // Candidates left unmatched: their images share max_shared_points.
+    int num_pairs_linked = 0;
     int num_images_triangulated = 0;
     Triangulator::Summary triangulation;
     bool global_ba = false;
@@ -214,6 +223,7 @@ class Engine {
     int num_slices = 0;
     int num_pairs_tried = 0;
     int num_pairs_verified = 0;
+    int num_pairs_linked = 0;
     int num_global_bas = 0;
     double ms = 0;
   };

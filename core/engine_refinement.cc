@@ -13,7 +13,8 @@
 namespace flysfm {
 
 bool Engine::Options::Refinement::Check() const {
-  return candidates_per_image >= 1 && pairs_per_slice >= 1 && images_per_slice >= 1 &&
+  return candidates_per_image >= 1 && max_shared_points >= 1 && pairs_per_slice >= 1 &&
+         images_per_slice >= 1 &&
          min_changed_observations >= 0 && max_adjustments >= 0 && max_adjusted_images >= 2;
 }
 
@@ -62,6 +63,7 @@ Engine::RefinementSlice Engine::Refine(const std::function<bool()>& should_yield
     ++totals.num_slices;
     totals.num_pairs_tried += slice.num_pairs_tried;
     totals.num_pairs_verified += slice.num_pairs_verified;
+    totals.num_pairs_linked += slice.num_pairs_linked;
     totals.num_global_bas += slice.global_ba;
     totals.ms +=
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
@@ -87,13 +89,19 @@ void Engine::MatchMorePairs(const std::function<bool()>& should_yield,
     image_t other_id = kInvalidImageId;
     for (const RetrievalCandidate& candidate :
          retriever_.QueryInserted(image_id, options_.refinement.candidates_per_image)) {
-      // A restored engine has no record of the pairs tried, only of those
-      // verified.
-      if (state.tried_pairs.insert(ImagePairKey(image_id, candidate.image_id)).second &&
-          matches_.NumMatches(image_id, candidate.image_id) == 0) {
-        other_id = candidate.image_id;
-        break;
+      // A restored engine knows the pairs tried on arrival, not those tried
+      // here; of these, the verified ones have their matches.
+      if (!state.tried_pairs.insert(ImagePairKey(image_id, candidate.image_id)).second ||
+          matches_.NumMatches(image_id, candidate.image_id) > 0) {
+        continue;
       }
+      if (reconstruction_.NumSharedPoints3D(image_id, candidate.image_id) >=
+          std::size_t(options_.refinement.max_shared_points)) {
+        ++slice->num_pairs_linked;
+        continue;
+      }
+      other_id = candidate.image_id;
+      break;
     }
     if (other_id == kInvalidImageId) {
       state.to_match.pop_front();

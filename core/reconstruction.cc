@@ -159,6 +159,20 @@ std::size_t Reconstruction::NumObservations() const {
   return count;
 }
 
+std::size_t Reconstruction::NumSharedPoints3D(image_t image_id1, image_t image_id2) const {
+  std::vector<point3D_t> observed;
+  for (const Point2D& point2D : images_.at(image_id1).points2D) {
+    if (point2D.HasPoint3D()) observed.push_back(point2D.point3D_id);
+  }
+  std::sort(observed.begin(), observed.end());
+  std::size_t shared = 0;
+  for (const Point2D& point2D : images_.at(image_id2).points2D) {
+    shared += point2D.HasPoint3D() &&
+              std::binary_search(observed.begin(), observed.end(), point2D.point3D_id);
+  }
+  return shared;
+}
+
 double Reconstruction::ReprojectionError(image_t image_id, point2D_t point2D_idx,
                                          const Eigen::Vector3d& xyz) const {
   const Image& image = images_.at(image_id);

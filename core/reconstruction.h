@@ -68,6 +68,8 @@ class Reconstruction {
   std::size_t NumRegisteredImages() const { return registered_.size(); }
   std::size_t NumPoints3D() const { return points3D_.size(); }
   std::size_t NumObservations() const;
+  // The 3D points both images observe (0 when either has none).
+  std::size_t NumSharedPoints3D(image_t image_id1, image_t image_id2) const;
 
   // What changed since the last TakeChanges(), so that a consumer (the live
   // view) can follow the model at the cost of the change, not of the model.

@@ -1,6 +1,8 @@
 #include "io/sources/prepared_source.h"
 
+#include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include <opencv2/core/utility.hpp>
 
@@ -40,11 +42,32 @@ std::optional<PreparedFrame> PreparedFrameSource::FetchAndPrepare() {
   return failed;
 }
 
+namespace {
+
+// A cadence follows the photographer's latest rhythm, not the session's.
+constexpr std::size_t kCadenceFrames = 9;
+
+template <typename T>
+T Median(std::vector<T> values) {
+  std::nth_element(values.begin(), values.begin() + values.size() / 2, values.end());
+  return values[values.size() / 2];
+}
+
+}  // namespace
+
 std::optional<PreparedFrame> PreparedFrameSource::Next() {
   if (exhausted_) return std::nullopt;
   std::optional<PreparedFrame> prepared = next_.get();
   if (prepared) {
     next_ = std::async(std::launch::async, [this] { return FetchAndPrepare(); });
+    if (prepared->frame.arrival != std::chrono::steady_clock::time_point()) {
+      arrivals_.push_back(prepared->frame.arrival);
+      prepare_s_.push_back((prepared->decode_ms + prepared->features_ms) / 1000);
+      if (arrivals_.size() > kCadenceFrames) {
+        arrivals_.pop_front();
+        prepare_s_.pop_front();
+      }
+    }
   } else {
     exhausted_ = true;
   }
@@ -55,15 +78,51 @@ bool PreparedFrameSource::WaitReady(std::chrono::milliseconds timeout) const {
   return exhausted_ || next_.wait_for(timeout) == std::future_status::ready;
 }
 
+std::optional<PreparedFrameSource::Cadence> PreparedFrameSource::ShotCadence() const {
+  if (arrivals_.size() < 3) return std::nullopt;
+  std::vector<std::chrono::steady_clock::duration> intervals;
+  for (std::size_t i = 1; i < arrivals_.size(); ++i) {
+    intervals.push_back(arrivals_[i] - arrivals_[i - 1]);
+  }
+  const std::chrono::duration<double> prepare(
+      Median(std::vector<double>(prepare_s_.begin(), prepare_s_.end())));
+  Cadence cadence;
+  cadence.interval = Median(std::move(intervals));
+  cadence.next_ready = arrivals_.back() + cadence.interval +
+                       std::chrono::duration_cast<std::chrono::steady_clock::duration>(prepare);
+  return cadence;
+}
+
 void RefineUntilNextFrame(Engine* engine, const PreparedFrameSource& source, double share,
                           const std::function<void(Engine::RefinementSlice*)>& on_slice) {
-  const auto frame_ready = [&source] { return source.WaitReady(); };
-  while (!frame_ready()) {
-    const auto start = std::chrono::steady_clock::now();
-    Engine::RefinementSlice slice = engine->Refine(frame_ready);
+  using Clock = std::chrono::steady_clock;
+  const std::optional<PreparedFrameSource::Cadence> cadence = source.ShotCadence();
+  // Engine::Refine polls `should_yield` between its units of work: the time
+  // between two polls is the unit just done.
+  Clock::duration longest_unit{0};
+  Clock::time_point last_poll;
+  const Clock::time_point rest_until =
+      cadence ? cadence->next_ready + cadence->interval / 2 : Clock::time_point();
+  const auto no_time_left = [&](Clock::time_point now) {
+    return cadence && now < rest_until && now + longest_unit > cadence->next_ready;
+  };
+  const auto should_yield = [&] {
+    const Clock::time_point now = Clock::now();
+    longest_unit = std::max(longest_unit, now - last_poll);
+    last_poll = now;
+    return source.WaitReady() || no_time_left(now);
+  };
+  while (!source.WaitReady()) {
+    const Clock::time_point start = Clock::now();
+    if (no_time_left(start)) {
+      source.WaitReady(std::chrono::ceil<std::chrono::milliseconds>(rest_until - start));
+      continue;
+    }
+    last_poll = start;
+    Engine::RefinementSlice slice = engine->Refine(should_yield);
     if (slice.step == Engine::RefinementSlice::Step::kNone) return;
     on_slice(&slice);
-    const std::chrono::duration<double> worked = std::chrono::steady_clock::now() - start;
+    const std::chrono::duration<double> worked = Clock::now() - start;
     const double rest_s = worked.count() * (1 / share - 1);
     if (rest_s > 0) source.WaitReady(std::chrono::milliseconds(std::llround(1000 * rest_s)));
   }

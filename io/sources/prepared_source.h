@@ -6,6 +6,7 @@
 // and deterministic; only Engine::Prepare, which needs no model, runs ahead).
 
 #include <chrono>
+#include <deque>
 #include <functional>
 #include <future>
 #include <optional>
@@ -33,6 +34,16 @@ class PreparedFrameSource {
   // Whether Next() would return at once (the next frame is prepared, or the
   // source is exhausted), after waiting at most `timeout` for it.
   bool WaitReady(std::chrono::milliseconds timeout = std::chrono::milliseconds(0)) const;
+  // The shots' recent rhythm: the median of the last intervals between
+  // arrivals, and when the frame after those Next() returned should be
+  // ready if the shots keep it (the last arrival, plus that interval, plus
+  // the median time a frame took to prepare). nullopt before three frames
+  // with an arrival time.
+  struct Cadence {
+    std::chrono::steady_clock::duration interval;
+    std::chrono::steady_clock::time_point next_ready;
+  };
+  std::optional<Cadence> ShotCadence() const;
 
  private:
   std::optional<PreparedFrame> FetchAndPrepare();
@@ -41,15 +52,23 @@ class PreparedFrameSource {
   Engine::Options options_;
   std::future<std::optional<PreparedFrame>> next_;
   bool exhausted_ = false;
+  // Of the last frames Next() returned: arrivals, and seconds to prepare.
+  std::deque<std::chrono::steady_clock::time_point> arrivals_;
+  std::deque<double> prepare_s_;
 };
 
 // Refinement slices (Engine::Refine) while `source` has no frame ready, each
-// ending as soon as one is: a new image waits for one step of a slice at
-// most. After a slice of t seconds it rests t (1/share - 1) seconds, or
-// until a frame is ready: refinement takes at most `share` (0, 1] of the
-// engine's core. `on_slice` sees each slice that did something. Returns
-// when a frame is ready or nothing is left to refine; an exception of the
-// engine propagates.
+// ending as soon as one is: a new image waits for one unit of a slice at
+// most (a pair, an image, a BA iteration). And while the shots keep their
+// cadence (PreparedFrameSource::ShotCadence), no unit starts that, as long
+// as the longest one seen meanwhile, would end after the next frame is
+// expected: it rests instead, up to half an interval past that time (a
+// shot a little late is a shot; one later is a pause, which refinement
+// gets the rest of). After a slice of t seconds it
+// rests t (1/share - 1) seconds, or until a frame is ready: refinement
+// takes at most `share` (0, 1] of the engine's core. `on_slice` sees each
+// slice that did something. Returns when a frame is ready or nothing is
+// left to refine; an exception of the engine propagates.
 void RefineUntilNextFrame(Engine* engine, const PreparedFrameSource& source, double share,
                           const std::function<void(Engine::RefinementSlice*)>& on_slice);
 

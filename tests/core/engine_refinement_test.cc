@@ -2,6 +2,7 @@
 // image, on a rendered capture with exact poses.
 
 #include <algorithm>
+#include <limits>
 #include <map>
 #include <memory>
 #include <vector>
@@ -41,10 +42,12 @@ double CenterRmse(const Reconstruction& reconstruction) {
 }
 
 // Arrival stops after two verified pairs, which leaves refinement most of
-// the match graph to complete.
+// the match graph to complete, and refinement matches every pair left,
+// whatever the tracks already join.
 Engine::Options FewPairsOnArrival() {
   Engine::Options options;
   options.max_verified_pairs = 2;
+  options.refinement.max_shared_points = std::numeric_limits<int>::max();
   return options;
 }
 
@@ -122,6 +125,7 @@ TEST_CASE("Refinement matches the pairs arrival skipped, then triangulates, adju
   CHECK(totals.num_slices == int(slices.size()));
   CHECK(totals.num_pairs_tried == tried);
   CHECK(totals.num_pairs_verified == verified);
+  CHECK(totals.num_pairs_linked == 0);
   CHECK(totals.num_global_bas == num_adjustments);
   CHECK(totals.ms > 0);
 
@@ -129,6 +133,20 @@ TEST_CASE("Refinement matches the pairs arrival skipped, then triangulates, adju
   CHECK(engine.Refine().step == Step::kNone);
   CHECK(engine.RefineToEnd().empty());
   CHECK(engine.refinement_totals().num_slices == int(slices.size()));
+
+  // Matching changes no track until the triangulation after it: of the same
+  // candidates, those whose images share a point are left unmatched when
+  // one shared point is enough to call a pair linked.
+  Engine::Options linked_options = FewPairsOnArrival();
+  linked_options.refinement.max_shared_points = 1;
+  Engine linked(linked_options, Capture().camera);
+  AddAll(&linked);
+  RefineAll(&linked);
+  const Engine::RefinementTotals& linked_totals = linked.refinement_totals();
+  CHECK(linked_totals.num_pairs_linked > 0);
+  CHECK(linked_totals.num_pairs_tried + linked_totals.num_pairs_linked == tried);
+  CHECK(linked_totals.num_pairs_verified <= verified);
+  CHECK(CenterRmse(linked.reconstruction()) < kCenterTolerance);
 }
 
 TEST_CASE("A slice gives way at once when an image waits") {

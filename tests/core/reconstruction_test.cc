@@ -1,5 +1,6 @@
 #include "core/reconstruction.h"
 
+#include <algorithm>
 #include <sstream>
 
 #include <catch2/catch.hpp>
@@ -115,6 +116,44 @@ TEST_CASE("Merging two points unites their tracks") {
   CHECK_FALSE(r.ExistsPoint3D(other));
   CHECK(r.point3D(merged).track.size() == track.size());
   CHECK(r.MeanReprojectionError() < 1e-9);
+}
+
+TEST_CASE("The points two images share are those whose tracks hold both") {
+  Fixture f;
+  Reconstruction& r = f.reconstruction;
+  const auto element_of = [](const Point3D& point, image_t image_id) {
+    return std::find_if(point.track.begin(), point.track.end(),
+                        [image_id](const TrackElement& e) { return e.image_id == image_id; });
+  };
+  const auto in_both = [&](image_t a, image_t b) {
+    std::size_t count = 0;
+    for (const auto& [id, point] : r.points3D()) {
+      count += element_of(point, a) != point.track.end() &&
+               element_of(point, b) != point.track.end();
+    }
+    return count;
+  };
+  const image_t a = r.RegisteredImageIds()[0];
+  const image_t b = r.RegisteredImageIds()[3];
+  const std::size_t shared = in_both(a, b);
+  REQUIRE(shared > 0);
+  CHECK(r.NumSharedPoints3D(a, b) == shared);
+  CHECK(r.NumSharedPoints3D(b, a) == shared);
+  // One observation fewer in `a` of a point both see: one shared point fewer.
+  for (const auto& [id, point] : r.points3D()) {
+    const auto in_a = element_of(point, a);
+    if (point.track.size() < 3 || in_a == point.track.end() ||
+        element_of(point, b) == point.track.end()) {
+      continue;
+    }
+    r.DeleteObservation(a, in_a->point2D_idx);
+    break;
+  }
+  CHECK(r.NumSharedPoints3D(a, b) == shared - 1);
+  CHECK(r.NumSharedPoints3D(a, b) == in_both(a, b));
+  // An image with no points shares none.
+  r.DeRegisterImage(b);
+  CHECK(r.NumSharedPoints3D(a, b) == 0);
 }
 
 TEST_CASE("A similarity transform keeps reprojection errors") {

@@ -1,5 +1,6 @@
 #include "io/sources/prepared_source.h"
 
+#include <algorithm>
 #include <chrono>
 #include <condition_variable>
 #include <mutex>
@@ -80,6 +81,52 @@ TEST_CASE("WaitReady tells whether the next frame is prepared, waiting at most a
   CHECK(prepared.WaitReady(std::chrono::seconds(5)));
   CHECK_FALSE(prepared.Next());
   CHECK(prepared.WaitReady());
+}
+
+// Frames that arrived at given times, as a camera's shots did.
+class StampedSource : public ImageSource {
+ public:
+  explicit StampedSource(std::vector<Frame> frames) : frames_(std::move(frames)) {}
+  std::optional<Frame> Next() override {
+    if (next_ == frames_.size()) return std::nullopt;
+    return frames_[next_++];
+  }
+
+ private:
+  std::vector<Frame> frames_;
+  std::size_t next_ = 0;
+};
+
+TEST_CASE("The next frame is expected after the last one at the shots' cadence, plus the "
+          "time a frame takes to prepare") {
+  SyntheticCaptureOptions capture_options;
+  capture_options.num_views = 5;
+  std::vector<Frame> frames = MakeSyntheticCapture(capture_options).frames;
+  const auto t0 = std::chrono::steady_clock::now();
+  const std::vector<double> arrivals_s = {0, 4, 7, 12, 15};  // intervals 4, 3, 5, 3
+  for (std::size_t i = 0; i < frames.size(); ++i) {
+    frames[i].arrival =
+        t0 + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                 std::chrono::duration<double>(arrivals_s[i]));
+  }
+  StampedSource source(frames);
+  PreparedFrameSource prepared(&source, Engine::Options());
+  std::vector<double> prepare_s;
+  for (std::size_t i = 0; i < frames.size(); ++i) {
+    // Too few shots for a cadence.
+    if (i < 3) CHECK_FALSE(prepared.ShotCadence());
+    const std::optional<PreparedFrame> frame = prepared.Next();
+    REQUIRE(frame);
+    prepare_s.push_back((frame->decode_ms + frame->features_ms) / 1000);
+  }
+  // Median interval 4 s (of 3, 3, 4, 5: the upper middle one), median
+  // preparation the third of five.
+  std::sort(prepare_s.begin(), prepare_s.end());
+  const std::optional<PreparedFrameSource::Cadence> cadence = prepared.ShotCadence();
+  REQUIRE(cadence);
+  CHECK(std::chrono::duration<double>(cadence->interval).count() == Approx(4).margin(1e-6));
+  CHECK(std::chrono::duration<double>(cadence->next_ready - t0).count() ==
+        Approx(15 + 4 + prepare_s[2]).margin(1e-6));
 }
 
 TEST_CASE("Leaving the engine loop early does not wait for the next shot") {
