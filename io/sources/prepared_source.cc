@@ -61,12 +61,10 @@ std::optional<PreparedFrame> PreparedFrameSource::Next() {
   if (prepared) {
     next_ = std::async(std::launch::async, [this] { return FetchAndPrepare(); });
     if (prepared->frame.arrival != std::chrono::steady_clock::time_point()) {
-      arrivals_.push_back(prepared->frame.arrival);
-      prepare_s_.push_back((prepared->decode_ms + prepared->features_ms) / 1000);
-      if (arrivals_.size() > kCadenceFrames) {
-        arrivals_.pop_front();
-        prepare_s_.pop_front();
-      }
+      shots_.push_back({prepared->frame.arrival,
+                        std::chrono::duration<double>(
+                            (prepared->decode_ms + prepared->features_ms) / 1000)});
+      if (shots_.size() > kCadenceFrames) shots_.pop_front();
     }
   } else {
     exhausted_ = true;
@@ -79,17 +77,18 @@ bool PreparedFrameSource::WaitReady(std::chrono::milliseconds timeout) const {
 }
 
 std::optional<PreparedFrameSource::Cadence> PreparedFrameSource::ShotCadence() const {
-  if (arrivals_.size() < 3) return std::nullopt;
+  if (shots_.size() < 3) return std::nullopt;
   std::vector<std::chrono::steady_clock::duration> intervals;
-  for (std::size_t i = 1; i < arrivals_.size(); ++i) {
-    intervals.push_back(arrivals_[i] - arrivals_[i - 1]);
+  std::vector<std::chrono::duration<double>> prepares = {shots_.front().prepare};
+  for (std::size_t i = 1; i < shots_.size(); ++i) {
+    intervals.push_back(shots_[i].arrival - shots_[i - 1].arrival);
+    prepares.push_back(shots_[i].prepare);
   }
-  const std::chrono::duration<double> prepare(
-      Median(std::vector<double>(prepare_s_.begin(), prepare_s_.end())));
   Cadence cadence;
   cadence.interval = Median(std::move(intervals));
-  cadence.next_ready = arrivals_.back() + cadence.interval +
-                       std::chrono::duration_cast<std::chrono::steady_clock::duration>(prepare);
+  cadence.next_ready =
+      shots_.back().arrival + cadence.interval +
+      std::chrono::duration_cast<std::chrono::steady_clock::duration>(Median(std::move(prepares)));
   return cadence;
 }
 

@@ -52,9 +52,13 @@ class PreparedFrameSource {
   Engine::Options options_;
   std::future<std::optional<PreparedFrame>> next_;
   bool exhausted_ = false;
-  // Of the last frames Next() returned: arrivals, and seconds to prepare.
-  std::deque<std::chrono::steady_clock::time_point> arrivals_;
-  std::deque<double> prepare_s_;
+  // Of the last frames Next() returned: when each arrived, and how long it
+  // took to prepare.
+  struct Shot {
+    std::chrono::steady_clock::time_point arrival;
+    std::chrono::duration<double> prepare;
+  };
+  std::deque<Shot> shots_;
 };
 
 // Refinement slices (Engine::Refine) while `source` has no frame ready, each
