@@ -262,9 +262,9 @@ void Engine::VerifyPairs(image_t image_id, const std::vector<RetrievalCandidate>
     if (initialized_ && result->num_verified_pairs >= options_.max_verified_pairs) break;
     const image_t other_id = candidate.image_id;
     refinement_.tried_pairs.insert(ImagePairKey(image_id, other_id));
-    PairVerification pair = verifier_.Verify(
-        image_id, features_.at(image_id).descriptors, other_id,
-        features_.at(other_id).descriptors, lsm_refined, &result->times);
+    PairVerification pair =
+        verifier_.Verify(image_id, features_.at(image_id), other_id, features_.at(other_id),
+                         lsm_refined, &result->times);
     Image& image = reconstruction_.image(image_id);
     for (const auto& [point2D_idx, xy] : pair.refined) {
       image.points2D[point2D_idx].xy = xy;

@@ -112,9 +112,9 @@ void Engine::MatchMorePairs(const std::function<bool()>& should_yield,
     // each arrived: moving them now would move the points they observe.
     const FeatureSet& features = features_.at(image_id);
     StageTimes times;
-    PairVerification pair = verifier_.Verify(
-        image_id, features.descriptors, other_id, features_.at(other_id).descriptors,
-        std::vector<char>(features.size(), 1), &times);
+    PairVerification pair =
+        verifier_.Verify(image_id, features, other_id, features_.at(other_id),
+                         std::vector<char>(features.size(), 1), &times);
     if (!pair.verified()) continue;
     ++slice->num_pairs_verified;
     matches_.SetMatches(image_id, other_id, std::move(pair.matches));

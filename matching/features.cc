@@ -13,7 +13,8 @@
 namespace flysfm {
 
 bool SiftOptions::Check() const {
-  return max_num_features > 0 && max_image_size >= 16 && peak_threshold >= 0 &&
+  return max_num_features > 0 && large_scale_share >= 0 && large_scale_share <= 1 &&
+         max_image_size >= 16 && peak_threshold >= 0 &&
          edge_threshold > 0 && num_octave_layers >= 1;
 }
 
@@ -24,6 +25,43 @@ void RootSiftInPlace(FeatureDescriptors* descriptors) {
     if (l1 > 0.f) row = (row.cwiseAbs() / l1).cwiseSqrt();
   }
 }
+
+namespace {
+
+// Of `max_num_features`, a share `large_scale_share` goes to the largest
+// scales, the rest to the strongest DoG responses among the others. OpenCV
+// keeps the strongest responses only, which on photos are mostly the finest
+// scales: brick joints, foliage, the doubled octave's noise, which another
+// viewpoint does not repeat. Coarse blobs repeat across views (COLMAP keeps
+// the largest scales only); fine strong features are the precise ones.
+// Ties are broken by position, so the selection does not depend on the
+// detector's order.
+void SelectKeypoints(int max_num_features, double large_scale_share,
+                     std::vector<cv::KeyPoint>* keypoints) {
+  if (int(keypoints->size()) <= max_num_features) return;
+  const auto by_position = [](const cv::KeyPoint& a, const cv::KeyPoint& b) {
+    if (a.pt.y != b.pt.y) return a.pt.y < b.pt.y;
+    return a.pt.x < b.pt.x;
+  };
+  const auto larger = [&](const cv::KeyPoint& a, const cv::KeyPoint& b) {
+    if (a.size != b.size) return a.size > b.size;
+    if (a.response != b.response) return a.response > b.response;
+    return by_position(a, b);
+  };
+  const auto stronger = [&](const cv::KeyPoint& a, const cv::KeyPoint& b) {
+    if (a.response != b.response) return a.response > b.response;
+    if (a.size != b.size) return a.size > b.size;
+    return by_position(a, b);
+  };
+  const auto begin = keypoints->begin();
+  const int num_large = int(std::lround(large_scale_share * max_num_features));
+  std::nth_element(begin, begin + num_large, keypoints->end(), larger);
+  std::nth_element(begin + num_large, begin + max_num_features, keypoints->end(), stronger);
+  keypoints->resize(max_num_features);
+  std::sort(keypoints->begin(), keypoints->end(), larger);
+}
+
+}  // namespace
 
 FeatureSet ExtractFeatures(const cv::Mat& image, const SiftOptions& options) {
   if (image.empty() || image.depth() != CV_8U || image.channels() != 3) {
@@ -57,12 +95,15 @@ FeatureSet ExtractFeatures(const cv::Mat& image, cv::Mat grey, const SiftOptions
   const double scale_x = double(image.cols) / grey.cols;
   const double scale_y = double(image.rows) / grey.rows;
 
-  cv::Ptr<cv::SIFT> sift =
-      cv::SIFT::create(options.max_num_features, options.num_octave_layers,
-                       options.peak_threshold, options.edge_threshold);
+  cv::Ptr<cv::SIFT> sift = cv::SIFT::create(0, options.num_octave_layers,
+                                             options.peak_threshold, options.edge_threshold);
   std::vector<cv::KeyPoint> cv_keypoints;
+  sift->detect(grey, cv_keypoints);
+  SelectKeypoints(options.max_num_features, options.large_scale_share, &cv_keypoints);
   cv::Mat cv_descriptors;
-  sift->detectAndCompute(grey, cv::noArray(), cv_keypoints, cv_descriptors);
+  // Describing only the kept keypoints also spares the doubled-resolution
+  // octave when none of them lies in it.
+  sift->compute(grey, cv_keypoints, cv_descriptors);
   FLYSFM_CHECK(cv_descriptors.empty() ||
                (cv_descriptors.rows == int(cv_keypoints.size()) &&
                 cv_descriptors.cols == 128 && cv_descriptors.type() == CV_32F));

@@ -48,11 +48,20 @@ struct FeatureSet {
 };
 
 struct SiftOptions {
-  // Strongest features kept (by DoG response). Matching grows with the
-  // square of the count and every later stage with the count: 1 500 kept
-  // fr1_xyz's ATE of 2 000 (1.09 cm on 120 frames) at a little over half the
-  // matching time, and bounds matching and memory on photos.
+  // Features kept. Matching grows with the square of the count and every
+  // later stage with the count: 1 500 kept fr1_xyz's ATE of 2 000 (1.09 cm
+  // on 120 frames) at a little over half the matching time, and bounds
+  // matching and memory on photos.
   int max_num_features = 1500;
+  // Share of the kept features chosen by the largest scale, the rest by the
+  // strongest DoG response (OpenCV's own choice). On photos the strongest
+  // responses are mostly fine texture that another viewpoint does not
+  // repeat; the coarse blobs are what a photo from nearer, from the side or
+  // against the sun still shares (sceaux_castle: 9 of 11 photos registered
+  // with none, all 11 with half), the fine ones are the precise ones
+  // (fountain-P11, all by scale: 2.6 mm instead of 2.1). docs/engine.md,
+  // step 2.
+  double large_scale_share = 0.5;
   // Longest image side used for extraction; larger images are downscaled
   // (area interpolation) and keypoints mapped back to full resolution. 1 600
   // px keeps a 6 MP photo near 0.3 s instead of over 1 s, with enough

@@ -62,13 +62,40 @@ TEST_CASE("descriptors are RootSIFT and the feature count is capped") {
   SiftOptions options;
   options.max_num_features = 500;
   const FeatureSet f = ExtractFeatures(MakeTexture(640, 480, 1), options);
-  REQUIRE(f.size() > 0);
-  // OpenCV keeps keypoints tied in response with the 500th, so a few more.
-  CHECK(f.size() <= 510);
+  REQUIRE(f.size() == 500);
   CHECK(f.descriptors.rows() == f.size());
   for (int i = 0; i < f.size(); ++i) {
     REQUIRE(f.descriptors.row(i).norm() == Approx(1.0).margin(1e-4));
     REQUIRE(f.descriptors.row(i).minCoeff() >= 0.f);
+  }
+}
+
+TEST_CASE("the cap keeps a share of the largest-scale keypoints, the rest the strongest") {
+  SiftOptions options;
+  options.max_num_features = 1 << 20;
+  const cv::Mat texture = MakeTexture(640, 480, 3);
+  const FeatureSet all = ExtractFeatures(texture, options);
+  options.max_num_features = 300;
+  REQUIRE(all.size() > 2 * options.max_num_features);
+  std::vector<float> scales;
+  for (const Keypoint& kp : all.keypoints) scales.push_back(kp.scale);
+  std::sort(scales.rbegin(), scales.rend());
+  const auto num_at_least = [](const FeatureSet& f, float scale) {
+    return std::count_if(f.keypoints.begin(), f.keypoints.end(),
+                         [&](const Keypoint& kp) { return kp.scale >= scale; });
+  };
+  for (const double share : {0.0, 1.0 / 3.0, 1.0}) {
+    options.large_scale_share = share;
+    const FeatureSet kept = ExtractFeatures(texture, options);
+    REQUIRE(kept.size() == options.max_num_features);
+    const int num_large = int(std::lround(share * options.max_num_features));
+    if (num_large > 0) CHECK(num_at_least(kept, scales[num_large - 1]) >= num_large);
+    for (const Keypoint& kp : kept.keypoints) {
+      // The same detection, only fewer of them.
+      REQUIRE(std::any_of(all.keypoints.begin(), all.keypoints.end(), [&](const Keypoint& other) {
+        return other.x == kp.x && other.y == kp.y && other.scale == kp.scale;
+      }));
+    }
   }
 }
 
@@ -97,6 +124,9 @@ TEST_CASE("a blank image has no features and bad images or options are rejected"
   SiftOptions bad;
   bad.max_num_features = 0;
   CHECK_FALSE(bad.Check());
+  SiftOptions bad_share;
+  bad_share.large_scale_share = 1.5;
+  CHECK_FALSE(bad_share.Check());
   CHECK_THROWS_AS(ExtractFeatures(MakeTexture(64, 64, 1), bad), std::invalid_argument);
 }
 
