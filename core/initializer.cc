@@ -17,9 +17,10 @@ Initializer::Initializer(const Options& options) : options_(options) {
   if (!options_.Check()) throw std::invalid_argument("invalid initializer options");
 }
 
-void Initializer::AddPair(image_t image_id1, image_t image_id2,
-                          const TwoViewGeometry& geometry) {
+void Initializer::AddPair(image_t image_id1, image_t image_id2, const TwoViewGeometry& geometry,
+                          bool intrinsics_known) {
   if (!geometry.has_pose || geometry.config == TwoViewConfiguration::kPanoramic) return;
+  if (intrinsics_known && geometry.config == TwoViewConfiguration::kUncalibrated) return;
   pairs_.push_back({image_id1, image_id2, geometry.cam2_from_cam1});
 }
 

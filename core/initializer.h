@@ -50,8 +50,14 @@ class Initializer {
   explicit Initializer(const Options& options);
 
   // Remembers a verified pair's geometry (cam2 = image_id2) until the model
-  // exists.
-  void AddPair(image_t image_id1, image_t image_id2, const TwoViewGeometry& geometry);
+  // exists. With guessed intrinsics (`intrinsics_known` false) a pair where
+  // GRIC preferred F to E starts a model from E's pose as well: the guess
+  // being off is what makes F fit better (fountain-P11 from a focal length
+  // 34 % off: 14 of its first 15 pairs), and the global BAs of the
+  // self-calibration correct the start. With known ones F winning means E
+  // does not explain the matches.
+  void AddPair(image_t image_id1, image_t image_id2, const TwoViewGeometry& geometry,
+               bool intrinsics_known);
 
   // The remembered pairs that qualify, most well-triangulated points first.
   // Keypoints and cameras are read as they are now (after LSM refinement);

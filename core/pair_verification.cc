@@ -4,6 +4,8 @@
 
 #include <Eigen/Geometry>
 
+#include "geometry/check.h"
+
 namespace flysfm {
 
 bool PairVerifier::Options::Check() const {
@@ -112,7 +114,12 @@ PairVerification PairVerifier::Verify(image_t image_id, const FeatureSet& featur
         kept.push_back(match);
         continue;
       }
-      if (search.empty()) search = lsm_images_->SearchPyramid(image_id);
+      if (search.empty()) {
+        // The new image is whole while it is matched; a registered one has
+        // every keypoint refined already.
+        search = lsm_images_->SearchPyramid(image_id);
+        FLYSFM_CHECK(!search.empty());
+      }
       const std::optional<Eigen::Vector2d> xy = RefineMatch(
           other_id, other_features.keypoints[match.idx2], other.points2D[match.idx2].xy, search,
           features.keypoints[match.idx1], image.points2D[match.idx1].xy, &matcher);

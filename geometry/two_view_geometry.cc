@@ -212,10 +212,15 @@ TwoViewGeometry EstimateCore(const std::vector<Eigen::Vector2d>& p1,
     geometry.num_inliers = geometry.num_inliers_f;
   }
 
-  const bool pose_from_e = calibration != nullptr && options.compute_relative_pose &&
-                           have_e &&
-                           (geometry.config == TwoViewConfiguration::kCalibrated ||
-                            geometry.config == TwoViewConfiguration::kPlanar);
+  // When F wins, the cameras given may be a guess: E's pose, from F's
+  // inliers, is then the start a self-calibration needs (the caller knows
+  // whether the cameras are).
+  const bool pose_from_e =
+      calibration != nullptr && options.compute_relative_pose && have_e &&
+      (geometry.config == TwoViewConfiguration::kCalibrated ||
+       geometry.config == TwoViewConfiguration::kPlanar ||
+       (geometry.config == TwoViewConfiguration::kUncalibrated &&
+        geometry.num_inliers_e >= options.min_num_inliers_f));
   if (pose_from_e) {
     std::vector<Eigen::Vector2d> x1, x2;
     for (int i = 0; i < n; ++i) {

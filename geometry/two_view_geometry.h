@@ -56,7 +56,9 @@ struct TwoViewGeometryOptions {
   // rotation-only homography keeps at least this fraction of H's inliers.
   double panoramic_min_inlier_ratio = 0.9;
   // With known cameras, recover cam2_from_cam1 for kCalibrated, kPlanar (from
-  // E, by cheirality) and kPanoramic (rotation only).
+  // E, by cheirality) and kPanoramic (rotation only); for kUncalibrated too,
+  // from E, when E had enough inliers: with guessed intrinsics GRIC prefers F
+  // as soon as the guess is off, though E keeps nearly all of F's inliers.
   bool compute_relative_pose = true;
   // Sampling options shared by the three RANSAC runs; max_error is ignored.
   RansacOptions ransac;
@@ -87,7 +89,8 @@ struct TwoViewGeometry {
   std::vector<char> inlier_mask;
   int num_inliers = 0;
   // Known cameras only (see TwoViewGeometryOptions::compute_relative_pose):
-  // |t| = 1 for kCalibrated and kPlanar, t = 0 for kPanoramic.
+  // |t| = 1 for kCalibrated, kPlanar and kUncalibrated, t = 0 for
+  // kPanoramic.
   bool has_pose = false;
   Rigid3d cam2_from_cam1;
   // Median triangulation angle (degrees) of the inliers in front of both

@@ -39,8 +39,8 @@ TEST_CASE("The initial pair is the one with most well-triangulated points, not m
   model.matches.SetMatches(id0, SceneImageId(5), matches05);
 
   Initializer initializer(Initializer::Options{});
-  initializer.AddPair(id0, SceneImageId(3), TrueGeometry(scene, 0, 3));
-  initializer.AddPair(id0, SceneImageId(5), TrueGeometry(scene, 0, 5));
+  initializer.AddPair(id0, SceneImageId(3), TrueGeometry(scene, 0, 3), true);
+  initializer.AddPair(id0, SceneImageId(5), TrueGeometry(scene, 0, 5), true);
   const std::vector<InitialPair> ranked =
       initializer.RankPairs(model.reconstruction, model.matches);
   REQUIRE(ranked.size() == 2);
@@ -58,11 +58,11 @@ TEST_CASE("The initial pair is the one with most well-triangulated points, not m
   Initializer::Options strict;
   strict.min_num_points = 301;
   Initializer demanding(strict);
-  demanding.AddPair(id0, SceneImageId(5), TrueGeometry(scene, 0, 5));
+  demanding.AddPair(id0, SceneImageId(5), TrueGeometry(scene, 0, 5), true);
   CHECK(demanding.RankPairs(model.reconstruction, model.matches).empty());
 }
 
-TEST_CASE("A pair without a pose, or a pure rotation, cannot start a model") {
+TEST_CASE("A pair without a pose, a pure rotation, or F with known intrinsics cannot start a model") {
   const testing::SyntheticScene scene = testing::MakeSyntheticScene({});
   SceneModel model = testing::MakeSceneModel(scene);
   Initializer initializer(Initializer::Options{});
@@ -70,9 +70,16 @@ TEST_CASE("A pair without a pose, or a pure rotation, cannot start a model") {
   no_pose.has_pose = false;
   TwoViewGeometry panoramic = TrueGeometry(scene, 0, 5);
   panoramic.config = TwoViewConfiguration::kPanoramic;
-  initializer.AddPair(SceneImageId(0), SceneImageId(4), no_pose);
-  initializer.AddPair(SceneImageId(0), SceneImageId(5), panoramic);
+  initializer.AddPair(SceneImageId(0), SceneImageId(4), no_pose, false);
+  initializer.AddPair(SceneImageId(0), SceneImageId(5), panoramic, false);
   CHECK(initializer.RankPairs(model.reconstruction, model.matches).empty());
+  // F preferred to E: a start only while the intrinsics are a guess.
+  TwoViewGeometry uncalibrated = TrueGeometry(scene, 0, 3);
+  uncalibrated.config = TwoViewConfiguration::kUncalibrated;
+  initializer.AddPair(SceneImageId(0), SceneImageId(3), uncalibrated, true);
+  CHECK(initializer.RankPairs(model.reconstruction, model.matches).empty());
+  initializer.AddPair(SceneImageId(0), SceneImageId(3), uncalibrated, false);
+  CHECK(initializer.RankPairs(model.reconstruction, model.matches).size() == 1);
   Initializer::Options bad;
   bad.min_num_points = 1;
   CHECK_FALSE(bad.Check());

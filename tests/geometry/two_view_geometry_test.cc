@@ -1,5 +1,7 @@
 #include "geometry/two_view_geometry.h"
 
+#include <algorithm>
+
 #include <catch2/catch.hpp>
 
 #include "tests/testing/two_view_matches.h"
@@ -111,6 +113,32 @@ TEST_CASE("Calibrated: GRIC separates planar, panoramic and general scenes") {
   CHECK(panoramic >= 190);
   CHECK(general >= 190);
   CHECK(pose_right >= 190);
+}
+
+// Without a calibration the engine normalises with a guessed focal length.
+// 40 % off, E fits worse than F and GRIC prefers F; E's pose is still the
+// start the self-calibrating BAs need: a rotation that a focal length 40 %
+// too long shrinks by up to that much, about the right axis.
+TEST_CASE("With a focal length guessed 40 % off, F wins and E still gives the pose") {
+  const Camera guess = Camera::FromFocal(CameraModelId::kPinhole, 700, 640, 480);
+  int uncalibrated = 0, pose_close = 0;
+  std::vector<double> errors;
+  for (int seed = 0; seed < 100; ++seed) {
+    const auto m = SceneInstance(testing::TwoViewScene::kGeneral, 8000 + seed, kPinhole);
+    TwoViewGeometryOptions options;
+    options.ransac.seed = seed;
+    const auto g = EstimateCalibratedTwoViewGeometry(guess, m.points1, guess, m.points2, options);
+    if (g.config != TwoViewConfiguration::kUncalibrated) continue;
+    ++uncalibrated;
+    REQUIRE(g.has_pose);
+    errors.push_back(RotationDifferenceDeg(g.cam2_from_cam1, m.Cam2FromCam1()));
+    pose_close += errors.back() <= 0.4 * RotationDifferenceDeg(m.Cam2FromCam1(), Rigid3d()) + 1;
+  }
+  std::sort(errors.begin(), errors.end());
+  INFO("F preferred in " << uncalibrated << " of 100, rotation error median "
+                          << (errors.empty() ? 0.0 : errors[errors.size() / 2]) << " deg");
+  CHECK(uncalibrated >= 50);
+  CHECK(pose_close >= 0.95 * uncalibrated);
 }
 
 TEST_CASE("Few matches with just enough inliers still verify, despite the bounded search") {
