@@ -6,8 +6,8 @@
 //   register later with densification) is kept whole, in 8-bit grey with its
 //   8-bit pyramid, and its float LSM pyramid is built when it is searched;
 // - any other image only ever gives LSM templates, at its own 2D points:
-//   refinement reads level 0 at its keypoints, densification every level at
-//   its observations. Of such an image only 8-bit tiles covering windows
+//   refinement reads its keypoints' levels and level 0, densification every
+//   level at its observations. Of such an image only 8-bit tiles covering windows
 //   around its 2D points are kept, on every pyramid level, and a template is
 //   cut from them when needed (an LsmImage with an origin).
 // The tiles are kept within a byte budget, the least recently used image's

@@ -2,9 +2,8 @@
 
 #include <stdexcept>
 
-#include <Eigen/Geometry>
-
 #include "geometry/check.h"
+#include "lsm/refine_matches.h"
 
 namespace flysfm {
 
@@ -16,53 +15,6 @@ PairVerifier::PairVerifier(const Options& options, const Reconstruction* reconst
                            LsmImageStore* lsm_images)
     : options_(options), reconstruction_(reconstruction), lsm_images_(lsm_images) {
   if (!options_.Check()) throw std::invalid_argument("invalid pair verification options");
-}
-
-int PairVerifier::FeatureLevel(float feature_scale, int window_size, int num_levels) {
-  int level = 0;
-  while (level + 1 < num_levels &&
-         feature_scale >= (2 << level) * kFeatureScalePerWindow * window_size) {
-    ++level;
-  }
-  return level;
-}
-
-std::optional<Eigen::Vector2d> PairVerifier::RefineMatch(image_t other_id,
-                                                         const Keypoint& other_keypoint,
-                                                         const Eigen::Vector2d& other_xy,
-                                                         const std::vector<LsmImage>& search,
-                                                         const Keypoint& keypoint,
-                                                         const Eigen::Vector2d& xy,
-                                                         LsmMatcher* matcher) const {
-  const int reach = LsmTemplateReach(options_.lsm);
-  const int num_levels = int(search.size());
-  const int window = options_.lsm.window_size;
-  const int other_level = FeatureLevel(other_keypoint.scale, window, num_levels);
-  const int level = FeatureLevel(keypoint.scale, window, num_levels);
-  const double other_to_level = 1.0 / (1 << other_level);
-  const double to_level = 1.0 / (1 << level);
-  // The start of the affine part: the similarity between the two SIFT
-  // frames, at the levels' resolutions. From the identity, LSM does not
-  // reach a view from twice as near or a camera turned to portrait.
-  const double turn = double(keypoint.orientation) - other_keypoint.orientation;
-  const double magnify =
-      other_keypoint.scale > 0 ? keypoint.scale / other_keypoint.scale * to_level / other_to_level
-                               : 1.0;
-  const Eigen::Matrix2d similarity =
-      magnify * Eigen::Rotation2Dd(turn).toRotationMatrix();
-  const LsmResult coarse =
-      matcher->Match(lsm_images_->Window(other_id, other_level, other_xy, reach),
-                     other_to_level * other_xy, search[level], to_level * xy, similarity);
-  if (!coarse.Converged()) return std::nullopt;
-  const Eigen::Vector2d refined = coarse.point2 / to_level;
-  if (level == 0 && other_level == 0) return refined;
-  // Full resolution from there sharpens the position where the finer
-  // texture allows; where it does not (a smooth blob at that scale), the
-  // coarse levels' position stands.
-  const LsmResult fine =
-      matcher->Match(lsm_images_->Window(other_id, 0, other_xy, reach), other_xy, search[0],
-                     refined, coarse.affine * (other_to_level / to_level));
-  return fine.Converged() ? fine.point2 : refined;
 }
 
 PairVerification PairVerifier::Verify(image_t image_id, const FeatureSet& features,
@@ -109,6 +61,7 @@ PairVerification PairVerifier::Verify(image_t image_id, const FeatureSet& featur
     std::vector<FeatureMatch> kept;
     std::vector<LsmImage> search;
     LsmMatcher matcher(options_.lsm);
+    const int reach = LsmTemplateReach(options_.lsm);
     for (const FeatureMatch& match : verified) {
       if (lsm_refined[match.idx1]) {
         kept.push_back(match);
@@ -120,12 +73,19 @@ PairVerification PairVerifier::Verify(image_t image_id, const FeatureSet& featur
         search = lsm_images_->SearchPyramid(image_id);
         FLYSFM_CHECK(!search.empty());
       }
-      const std::optional<Eigen::Vector2d> xy = RefineMatch(
-          other_id, other_features.keypoints[match.idx2], other.points2D[match.idx2].xy, search,
-          features.keypoints[match.idx1], image.points2D[match.idx1].xy, &matcher);
-      if (!xy) continue;
+      // Positions are the reconstruction's (the other image's as LSM
+      // refined them), scale and orientation SIFT's.
+      const Keypoint& other_keypoint = other_features.keypoints[match.idx2];
+      const Keypoint& keypoint = features.keypoints[match.idx1];
+      const FeatureFrame other_frame{other.points2D[match.idx2].xy, other_keypoint.scale,
+                                     other_keypoint.orientation};
+      const RefinedMatch refined = RefineMatch(
+          [&](int level) { return lsm_images_->Window(other_id, level, other_frame.xy, reach); },
+          other_frame, search,
+          {image.points2D[match.idx1].xy, keypoint.scale, keypoint.orientation}, &matcher);
+      if (!refined.Converged()) continue;
       kept.push_back(match);
-      pair.refined.emplace_back(point2D_t(match.idx1), *xy);
+      pair.refined.emplace_back(point2D_t(match.idx1), refined.point2);
     }
     pair.num_lsm_rejected = int(verified.size() - kept.size());
     verified = std::move(kept);

@@ -6,7 +6,6 @@
 // keypoints on the candidate's windows, each on the pyramid level of its
 // feature's scale.
 
-#include <optional>
 #include <utility>
 #include <vector>
 
@@ -60,27 +59,7 @@ class PairVerifier {
                           const FeatureSet& other_features, const std::vector<char>& lsm_refined,
                           StageTimes* times) const;
 
-  // LSM matches each feature on the coarsest of `num_levels` pyramid levels
-  // where its SIFT diameter (full-resolution pixels) is at least
-  // kFeatureScalePerWindow of the window. A feature SIFT found at a coarse
-  // scale is a blob that large; a 15-pixel window on full resolution sees a
-  // smooth part of it, too little texture to match (on 6 MP photos, where
-  // SIFT keeps the largest scales, most of them), and a view from nearer
-  // magnifies it beyond the affine start's reach.
-  static constexpr double kFeatureScalePerWindow = 0.4;
-  static int FeatureLevel(float feature_scale, int window_size, int num_levels);
-
  private:
-  // The refined position in the new image of the match of the other
-  // image's keypoint; nullopt when LSM does not converge on the features'
-  // levels. Positions are the reconstruction's (LSM-refined in the other
-  // image), the keypoints give scale and orientation.
-  std::optional<Eigen::Vector2d> RefineMatch(image_t other_id, const Keypoint& other_keypoint,
-                                             const Eigen::Vector2d& other_xy,
-                                             const std::vector<LsmImage>& search,
-                                             const Keypoint& keypoint, const Eigen::Vector2d& xy,
-                                             LsmMatcher* matcher) const;
-
   Options options_;
   const Reconstruction* reconstruction_;
   LsmImageStore* lsm_images_;

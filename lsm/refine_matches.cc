@@ -1,69 +1,55 @@
 #include "lsm/refine_matches.h"
 
-#include <stdexcept>
-#include <string>
+#include <Eigen/Geometry>
 
 namespace flysfm {
 
-namespace {
-
-// `template_for(i)`: the image holding points1[i]'s template.
-template <typename TemplateFor>
-RefineMatchesResult RefineEach(TemplateFor template_for, const LsmImage& image2,
-                               const std::vector<Eigen::Vector2d>& points1,
-                               const std::vector<Eigen::Vector2d>& points2,
-                               const LsmOptions& options) {
-  if (points1.size() != points2.size()) {
-    throw std::invalid_argument(
-        "RefineMatches: " + std::to_string(points1.size()) +
-        " points in image 1 but " + std::to_string(points2.size()) +
-        " in image 2");
+int FeatureLevel(double feature_scale, int window_size, int num_levels) {
+  int level = 0;
+  while (level + 1 < num_levels &&
+         feature_scale >= (2 << level) * kFeatureScalePerWindow * window_size) {
+    ++level;
   }
-  LsmMatcher matcher(options);
-  RefineMatchesResult refined;
-  refined.results.reserve(points1.size());
-  for (size_t i = 0; i < points1.size(); ++i) {
-    refined.results.push_back(
-        matcher.Match(template_for(i), points1[i], image2, points2[i]));
-    const LsmStatus status = refined.results.back().status;
-    refined.counts.Add(status);
-    if (status == LsmStatus::kConverged)
-      refined.inliers.push_back(static_cast<int>(i));
+  return level;
+}
+
+RefinedMatch RefineMatch(const TemplateOnLevel& template1, const FeatureFrame& feature1,
+                         const std::vector<LsmImage>& pyramid2, const FeatureFrame& feature2,
+                         LsmMatcher* matcher) {
+  RefinedMatch refined;
+  if (pyramid2.empty()) return refined;
+  const int num_levels = int(pyramid2.size());
+  const int window = matcher->options().window_size;
+  const int level1 = FeatureLevel(feature1.scale, window, num_levels);
+  const int level2 = FeatureLevel(feature2.scale, window, num_levels);
+  const double to_level1 = 1.0 / (1 << level1);
+  const double to_level2 = 1.0 / (1 << level2);
+  // The start of the affine part: the similarity between the two SIFT
+  // frames, at the levels' resolutions. From the identity, LSM does not
+  // reach a view from twice as near or a camera turned to portrait.
+  const double magnify =
+      feature1.scale > 0 ? feature2.scale / feature1.scale * to_level2 / to_level1 : 1.0;
+  const Eigen::Matrix2d similarity =
+      magnify *
+      Eigen::Rotation2Dd(feature2.orientation - feature1.orientation).toRotationMatrix();
+  const LsmResult coarse = matcher->Match(template1(level1), to_level1 * feature1.xy,
+                                          pyramid2[level2], to_level2 * feature2.xy, similarity);
+  refined.status = coarse.status;
+  if (!coarse.Converged()) return refined;
+  refined.point2 = coarse.point2 / to_level2;
+  if (level1 == 0 && level2 == 0) return refined;
+  // Full resolution from there sharpens the position. Where its window is
+  // too smooth to tell (a blob at that scale), the coarse levels' position
+  // stands; where full resolution contradicts the coarse match (it
+  // diverges, slides away, or the windows differ), the match is an outlier.
+  const LsmResult fine = matcher->Match(template1(0), feature1.xy, pyramid2[0], refined.point2,
+                                        coarse.affine * (to_level1 / to_level2));
+  if (fine.Converged()) {
+    refined.point2 = fine.point2;
+  } else if (fine.status != LsmStatus::kLowTexture && fine.status != LsmStatus::kIllConditioned) {
+    refined.status = fine.status;
   }
   return refined;
-}
-
-}  // namespace
-
-RefineMatchesResult RefineMatches(const LsmImage& image1,
-                                  const LsmImage& image2,
-                                  const std::vector<Eigen::Vector2d>& points1,
-                                  const std::vector<Eigen::Vector2d>& points2,
-                                  const LsmOptions& options) {
-  return RefineEach([&](size_t) -> const LsmImage& { return image1; }, image2,
-                    points1, points2, options);
-}
-
-RefineMatchesResult RefineMatches(const std::vector<LsmImage>& windows1,
-                                  const LsmImage& image2,
-                                  const std::vector<Eigen::Vector2d>& points1,
-                                  const std::vector<Eigen::Vector2d>& points2,
-                                  const LsmOptions& options) {
-  if (windows1.size() != points1.size()) {
-    throw std::invalid_argument("RefineMatches: " + std::to_string(windows1.size()) +
-                                " windows for " + std::to_string(points1.size()) +
-                                " points");
-  }
-  return RefineEach([&](size_t i) -> const LsmImage& { return windows1[i]; },
-                    image2, points1, points2, options);
-}
-
-RefineMatchesResult RefineMatches(const cv::Mat& image1, const cv::Mat& image2,
-                                  const std::vector<Eigen::Vector2d>& points1,
-                                  const std::vector<Eigen::Vector2d>& points2,
-                                  const LsmOptions& options) {
-  return RefineMatches(LsmImage(image1), LsmImage(image2), points1, points2,
-                       options);
 }
 
 }  // namespace flysfm

@@ -1,50 +1,54 @@
 #pragma once
 
-// LSM refinement of the correspondences of one image pair (the paper's
-// Sect. III-C-2): each match's position in image 2 is refined; a match that
-// does not converge is an outlier.
+// LSM refinement of one SIFT match (the paper's Sect. III-C-2): the position
+// of image 1's feature in image 2 is refined; a match that does not converge
+// is an outlier. Each feature is matched on the pyramid level of its own
+// scale, from the similarity of the two SIFT frames, then sharpened on full
+// resolution.
 
+#include <functional>
 #include <vector>
 
 #include <Eigen/Core>
-#include <opencv2/core.hpp>
 
 #include "lsm/lsm.h"
 
 namespace flysfm {
 
-struct RefineMatchesResult {
-  // One per input match, in input order; results[i].point2 is the refined
-  // position where results[i].Converged().
-  std::vector<LsmResult> results;
-  // Indices of the converged matches: the inliers to keep.
-  std::vector<int> inliers;
-  // Matches by final status (converged ones under kConverged).
-  LsmStatusCounts counts;
+// What SIFT says of a feature: where, how large, which way.
+struct FeatureFrame {
+  Eigen::Vector2d xy = Eigen::Vector2d::Zero();  // full resolution, OpenCV convention
+  double scale = 0;        // diameter in full-resolution pixels (Keypoint::scale)
+  double orientation = 0;  // radians (Keypoint::orientation)
 };
 
-// points1[i] in image 1 matches points2[i] in image 2 (OpenCV pixel
-// convention). Throws std::invalid_argument when the lists differ in size or
-// the options are invalid.
-RefineMatchesResult RefineMatches(const LsmImage& image1,
-                                  const LsmImage& image2,
-                                  const std::vector<Eigen::Vector2d>& points1,
-                                  const std::vector<Eigen::Vector2d>& points2,
-                                  const LsmOptions& options = LsmOptions());
+// A feature is matched on the coarsest of `num_levels` pyramid levels where
+// its diameter is at least kFeatureScalePerWindow of the window. A feature
+// SIFT found at a coarse scale is a blob that large; a 15-pixel window on
+// full resolution sees a smooth part of it, too little texture to match (on
+// 6 MP photos most of the largest-scale features), and a view from nearer
+// magnifies it beyond the affine start's reach.
+constexpr double kFeatureScalePerWindow = 0.4;
+int FeatureLevel(double feature_scale, int window_size, int num_levels);
 
-// The same with image 1 kept only as windows (LsmImage with an origin):
-// windows1[i] holds points1[i]'s template, at least LsmTemplateReach pixels
-// around it. Throws std::invalid_argument when the lists differ in size.
-RefineMatchesResult RefineMatches(const std::vector<LsmImage>& windows1,
-                                  const LsmImage& image2,
-                                  const std::vector<Eigen::Vector2d>& points1,
-                                  const std::vector<Eigen::Vector2d>& points2,
-                                  const LsmOptions& options = LsmOptions());
+struct RefinedMatch {
+  // LSM's status on the features' levels.
+  LsmStatus status = LsmStatus::kInvalidInput;
+  // Where converged: feature 1's match in image 2, full resolution.
+  Eigen::Vector2d point2 = Eigen::Vector2d::Zero();
 
-// The same on grey images (CV_8U or CV_32F), each converted once.
-RefineMatchesResult RefineMatches(const cv::Mat& image1, const cv::Mat& image2,
-                                  const std::vector<Eigen::Vector2d>& points1,
-                                  const std::vector<Eigen::Vector2d>& points2,
-                                  const LsmOptions& options = LsmOptions());
+  bool Converged() const { return status == LsmStatus::kConverged; }
+};
+
+// Image 1's pixels on a pyramid level (level 0 full resolution, each next
+// one cv::pyrDown's half) around feature 1: a whole level, or a window of at
+// least LsmTemplateReach pixels around it (an LsmImage with an origin).
+using TemplateOnLevel = std::function<LsmImage(int level)>;
+
+// Refines feature 2's position as the match of feature 1, searching image 2's
+// pyramid (BuildLsmPyramid). With the matcher's options.
+RefinedMatch RefineMatch(const TemplateOnLevel& template1, const FeatureFrame& feature1,
+                         const std::vector<LsmImage>& pyramid2, const FeatureFrame& feature2,
+                         LsmMatcher* matcher);
 
 }  // namespace flysfm

@@ -74,17 +74,6 @@ TEST_CASE("A rendered pair verifies, and LSM refines each keypoint once") {
   CHECK(int(plain.matches.size()) == plain.geometry.num_inliers);
 }
 
-TEST_CASE("LSM matches each feature on the pyramid level of its scale") {
-  const int window = LsmOptions().window_size;
-  CHECK(PairVerifier::FeatureLevel(0.f, window, 3) == 0);
-  CHECK(PairVerifier::FeatureLevel(11.9f, window, 3) == 0);
-  CHECK(PairVerifier::FeatureLevel(12.f, window, 3) == 1);
-  CHECK(PairVerifier::FeatureLevel(23.9f, window, 3) == 1);
-  CHECK(PairVerifier::FeatureLevel(24.f, window, 3) == 2);
-  CHECK(PairVerifier::FeatureLevel(1000.f, window, 3) == 2);
-  CHECK(PairVerifier::FeatureLevel(1000.f, window, 1) == 0);
-}
-
 // A photographer steps twice as near and turns the camera: the new image
 // shows the other's texture magnified 2x and rotated. LSM keeps the matches
 // and refines them to the truth of the warp, well below SIFT's error.

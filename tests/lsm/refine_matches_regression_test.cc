@@ -25,9 +25,13 @@ namespace flysfm {
 namespace {
 
 struct Matches {
-  std::vector<Eigen::Vector2d> points1;
-  std::vector<Eigen::Vector2d> points2;
+  std::vector<FeatureFrame> features1;
+  std::vector<FeatureFrame> features2;
 };
+
+FeatureFrame FrameOf(const Keypoint& keypoint) {
+  return {Eigen::Vector2d(keypoint.x, keypoint.y), keypoint.scale, keypoint.orientation};
+}
 
 Matches SiftMatches(const cv::Mat& image1, const cv::Mat& image2,
                     int max_features) {
@@ -40,12 +44,16 @@ Matches SiftMatches(const cv::Mat& image1, const cv::Mat& image2,
   Matches matches;
   for (const FeatureMatch& match : MatchDescriptors(
            features1.descriptors, features2.descriptors, MatchOptions())) {
-    const Keypoint& p1 = features1.keypoints[match.idx1];
-    const Keypoint& p2 = features2.keypoints[match.idx2];
-    matches.points1.emplace_back(p1.x, p1.y);
-    matches.points2.emplace_back(p2.x, p2.y);
+    matches.features1.push_back(FrameOf(features1.keypoints[match.idx1]));
+    matches.features2.push_back(FrameOf(features2.keypoints[match.idx2]));
   }
   return matches;
+}
+
+std::vector<Eigen::Vector2d> Positions(const std::vector<FeatureFrame>& features) {
+  std::vector<Eigen::Vector2d> positions;
+  for (const FeatureFrame& feature : features) positions.push_back(feature.xy);
+  return positions;
 }
 
 // Undistorted pixel coordinates: the camera's ray through the pixel, seen
@@ -96,14 +104,6 @@ double MedianSampson(const std::vector<Eigen::Vector2d>& points1,
   return distances[distances.size() / 2];
 }
 
-template <typename T>
-std::vector<T> Select(const std::vector<T>& values,
-                      const std::vector<int>& indices) {
-  std::vector<T> selected;
-  for (const int i : indices) selected.push_back(values[i]);
-  return selected;
-}
-
 struct PairFigures {
   int verified = 0;
   int refined = 0;
@@ -117,41 +117,41 @@ PairFigures EvaluatePair(const cv::Mat& image1, const cv::Mat& image2,
   const Matches matches = SiftMatches(image1, image2, max_features);
   // Verified matches: inliers of a robust F on the raw SIFT positions.
   const RansacResult<Eigen::Matrix3d> verification =
-      RobustFundamental(Undistorted(camera, matches.points1),
-                        Undistorted(camera, matches.points2), 1.5);
+      RobustFundamental(Undistorted(camera, Positions(matches.features1)),
+                        Undistorted(camera, Positions(matches.features2)), 1.5);
   REQUIRE(verification.success);
-  std::vector<int> verified;
+  const std::vector<LsmImage> pyramid1 = BuildLsmPyramid(image1, 3);
+  const std::vector<LsmImage> pyramid2 = BuildLsmPyramid(image2, 3);
+  LsmMatcher matcher{LsmOptions()};
+  PairFigures figures;
+  std::vector<Eigen::Vector2d> kept1, raw2, refined2;
+  LsmStatusCounts counts;
   for (size_t i = 0; i < verification.inlier_mask.size(); ++i) {
-    if (verification.inlier_mask[i]) verified.push_back(static_cast<int>(i));
+    if (!verification.inlier_mask[i]) continue;
+    ++figures.verified;
+    const RefinedMatch refined =
+        RefineMatch([&](int level) { return pyramid1[level]; }, matches.features1[i], pyramid2,
+                    matches.features2[i], &matcher);
+    counts.Add(refined.status);
+    if (!refined.Converged()) continue;
+    kept1.push_back(matches.features1[i].xy);
+    raw2.push_back(matches.features2[i].xy);
+    refined2.push_back(refined.point2);
   }
-  const std::vector<Eigen::Vector2d> points1 =
-      Select(matches.points1, verified);
-  const std::vector<Eigen::Vector2d> points2 =
-      Select(matches.points2, verified);
-  const RefineMatchesResult refined =
-      RefineMatches(image1, image2, points1, points2);
 
   // Both figures on the matches LSM kept, each against its own F.
-  std::vector<Eigen::Vector2d> refined2;
-  for (const int i : refined.inliers)
-    refined2.push_back(refined.results[i].point2);
-  const std::vector<Eigen::Vector2d> kept1 =
-      Undistorted(camera, Select(points1, refined.inliers));
-  PairFigures figures;
-  figures.verified = static_cast<int>(verified.size());
-  figures.refined = static_cast<int>(refined.inliers.size());
+  figures.refined = static_cast<int>(kept1.size());
   if (figures.refined >= 30) {
-    figures.raw_median = MedianSampson(
-        kept1, Undistorted(camera, Select(points2, refined.inliers)));
-    figures.refined_median =
-        MedianSampson(kept1, Undistorted(camera, refined2));
+    kept1 = Undistorted(camera, kept1);
+    figures.raw_median = MedianSampson(kept1, Undistorted(camera, raw2));
+    figures.refined_median = MedianSampson(kept1, Undistorted(camera, refined2));
   }
   std::string failures;
   for (int s = 1; s < kNumLsmStatus; ++s) {
     const LsmStatus status = static_cast<LsmStatus>(s);
-    if (refined.counts[status] == 0) continue;
+    if (counts[status] == 0) continue;
     failures += std::string(" ") + LsmStatusName(status) + "=" +
-                std::to_string(refined.counts[status]);
+                std::to_string(counts[status]);
   }
   std::printf(
       "%-28s verified %4d  refined %4d  median Sampson raw %.4f px  LSM %.4f "
