@@ -273,7 +273,9 @@ void Engine::VerifyPairs(image_t image_id, const std::vector<RetrievalCandidate>
     result->num_lsm_rejected += pair.num_lsm_rejected;
     if (!pair.verified()) continue;
     ++result->num_verified_pairs;
-    if (!initialized_) initializer_.AddPair(image_id, other_id, pair.geometry, known_camera_.has_value());
+    if (!initialized_) {
+      initializer_.AddPair(image_id, other_id, pair.geometry, known_camera_.has_value());
+    }
     matches_.SetMatches(image_id, other_id, std::move(pair.matches));
   }
 }
