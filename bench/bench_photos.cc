@@ -8,7 +8,7 @@
 // line of JSON.
 //
 //   bench_photos [--photos N] [--megapixels 6|24] [--calibrated] [--seed S]
-//                [--supersampling K] [--work DIR] [--profile]
+//                [--supersampling K] [--work DIR] [--window-budget MB] [--profile]
 //
 // Each view is rendered by io/synthetic's renderer, written as a JPEG
 // (quality 92, no EXIF, so the uncalibrated engine must guess the focal
@@ -17,6 +17,7 @@
 // works (io/sources/prepared_source.h). Rendering is timed apart; it is not
 // the engine's. With --work the JPEGs are kept there and reused by a later
 // run with the same seed and size (rendering 300 photos takes minutes).
+// --window-budget sets LsmImageStore::Options::window_budget_megabytes.
 //
 // --profile adds an offline look at why two-view verification costs more on
 // photos than on 640x480 frames: sample pairs of the session are matched and
@@ -517,6 +518,7 @@ int main(int argc, char** argv) {
   int seed = 1;
   int supersampling = 1;
   std::string work;
+  int window_budget_mb = LsmImageStore::Options().window_budget_megabytes;
   for (int i = 1; i < argc; ++i) {
     const bool has_value = i + 1 < argc;
     if (!std::strcmp(argv[i], "--photos") && has_value) {
@@ -529,6 +531,8 @@ int main(int argc, char** argv) {
       supersampling = std::atoi(argv[++i]);
     } else if (!std::strcmp(argv[i], "--work") && has_value) {
       work = argv[++i];
+    } else if (!std::strcmp(argv[i], "--window-budget") && has_value) {
+      window_budget_mb = std::atoi(argv[++i]);
     } else if (!std::strcmp(argv[i], "--calibrated")) {
       calibrated = true;
     } else if (!std::strcmp(argv[i], "--profile")) {
@@ -538,9 +542,11 @@ int main(int argc, char** argv) {
       break;
     }
   }
-  if (num_photos < 10 || (megapixels != 6 && megapixels != 24) || supersampling < 1) {
+  if (num_photos < 10 || (megapixels != 6 && megapixels != 24) || supersampling < 1 ||
+      window_budget_mb < 0) {
     std::cerr << "usage: bench_photos [--photos N>=10] [--megapixels 6|24] [--calibrated] "
-                 "[--seed S] [--supersampling K] [--work DIR] [--profile]\n";
+                 "[--seed S] [--supersampling K] [--work DIR] [--window-budget MB] "
+                 "[--profile]\n";
     return 2;
   }
 
@@ -616,6 +622,7 @@ int main(int argc, char** argv) {
 
   // The engine, as `flysfm batch` makes it (with --camera when calibrated).
   Engine::Options options;
+  options.lsm_images.window_budget_megabytes = window_budget_mb;
   std::optional<Camera> known_camera;
   if (calibrated) known_camera = Camera::FromString(camera_text.str(), 0, 0);
   const double rss_before_mb = ProcStatusMb("VmRSS");

@@ -6,7 +6,6 @@
 #include <stdexcept>
 #include <utility>
 
-#include <opencv2/imgproc.hpp>
 
 #include "core/scene_bundle.h"
 #include "matching/image_decode.h"
@@ -119,9 +118,14 @@ PreparedFrame Engine::Prepare(const Frame& frame, const Options& options) {
   prepared.frame.timestamp = frame.timestamp;
   prepared.frame.arrival = frame.arrival;
   auto start = std::chrono::steady_clock::now();
-  DecodedImage decoded = frame.bytes.empty()
-                             ? DecodeImageFile(frame.path.string(), options.decode)
-                             : DecodeImageBytes(frame.bytes, options.decode);
+  // Colours are read only at keypoints, which SIFT finds on a copy of at
+  // most max_image_size pixels: a colour image reduced to about that size
+  // gives them, and LSM reads the full-size grey.
+  const int colour_long_side = options.sift.max_image_size;
+  DecodedImage decoded =
+      frame.bytes.empty()
+          ? DecodeImageFile(frame.path.string(), options.decode, colour_long_side)
+          : DecodeImageBytes(frame.bytes, options.decode, colour_long_side);
   prepared.decode_ms = MillisecondsSince(start);
   if (!decoded.ok()) {
     prepared.error = std::move(decoded.error);
@@ -129,9 +133,9 @@ PreparedFrame Engine::Prepare(const Frame& frame, const Options& options) {
   }
   start = std::chrono::steady_clock::now();
   prepared.image = std::move(decoded.image);
+  prepared.grey = std::move(decoded.grey);
   prepared.exif_focal_length_px = decoded.exif_focal_length_px;
   prepared.camera_identity = std::move(decoded.camera_identity);
-  cv::cvtColor(prepared.image, prepared.grey, cv::COLOR_BGR2GRAY);
   prepared.features = ExtractFeatures(prepared.image, prepared.grey, options.sift);
   prepared.features_ms = MillisecondsSince(start);
   return prepared;
@@ -228,8 +232,8 @@ std::vector<ImageResult> Engine::AddImage(PreparedFrame prepared) {
 }
 
 camera_t Engine::CameraFor(const PreparedFrame& prepared) {
-  const int width = prepared.image.cols;
-  const int height = prepared.image.rows;
+  const int width = prepared.grey.cols;
+  const int height = prepared.grey.rows;
   const std::tuple<int, int, std::string> key{width, height, prepared.camera_identity};
   const auto it = camera_by_identity_.find(key);
   if (it != camera_by_identity_.end()) return it->second;

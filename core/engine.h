@@ -45,8 +45,8 @@ namespace flysfm {
 // the second core while the engine works on this one (ARCHITECTURE.md).
 struct PreparedFrame {
   Frame frame;    // name and times; the encoded bytes are released
-  cv::Mat image;  // BGR; empty when decoding failed
-  cv::Mat grey;
+  cv::Mat image;  // BGR, perhaps reduced (DecodedImage); empty when decoding failed
+  cv::Mat grey;   // full size
   std::string error;  // why decoding failed; empty on success
   std::optional<double> exif_focal_length_px;
   std::string camera_identity;  // body, lens and zoom from the EXIF

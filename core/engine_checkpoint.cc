@@ -3,7 +3,6 @@
 
 #include <algorithm>
 
-#include <opencv2/imgproc.hpp>
 
 #include "core/engine.h"
 #include "geometry/binary_io.h"
@@ -171,16 +170,15 @@ void Engine::Restore(std::istream& snapshot, const CheckpointFiles& files) {
       [this](image_t image_id) -> cv::Mat {
         const std::filesystem::path& file = image_files_.at(image_id);
         if (file.empty()) return {};
-        DecodedImage decoded = DecodeImageFile(file.string(), options_.decode);
+        // Only the grey is read: the colour as small as decoding allows.
+        DecodedImage decoded = DecodeImageFile(file.string(), options_.decode, 1);
         const Camera& camera =
             reconstruction_.camera(reconstruction_.image(image_id).camera_id);
-        if (!decoded.ok() || decoded.image.cols != camera.width ||
-            decoded.image.rows != camera.height) {
+        if (!decoded.ok() || decoded.grey.cols != camera.width ||
+            decoded.grey.rows != camera.height) {
           return {};
         }
-        cv::Mat grey;
-        cv::cvtColor(decoded.image, grey, cv::COLOR_BGR2GRAY);
-        return grey;
+        return decoded.grey;
       },
       files.windows);
   // Refinement starts over: the pairs it tried are not checkpointed, and

@@ -134,7 +134,13 @@ std::vector<LsmImage> LsmImageStore::SearchPyramid(image_t image_id) {
   if (image_id != search_image_id_) {
     const Entry& entry = entries_.at(image_id);
     if (!entry.whole) return {};
-    search_pyramid_ = BuildLsmPyramid(entry.levels[0].whole, options_.num_pyramid_levels);
+    // Every level from the 8-bit pyramid the templates of older images are
+    // cut from, without the float pixels a search never reads.
+    search_pyramid_.clear();
+    search_pyramid_.shrink_to_fit();
+    for (const Level& level : entry.levels) {
+      search_pyramid_.push_back(LsmImage::SplineOnly(level.whole));
+    }
     search_image_id_ = image_id;
   }
   return search_pyramid_;

@@ -4,7 +4,8 @@
 // the length of the session (docs/engine.md, "Memory"):
 // - an image LSM may still search (the new image; a waiting image, which may
 //   register later with densification) is kept whole, in 8-bit grey with its
-//   8-bit pyramid, and its float LSM pyramid is built when it is searched;
+//   8-bit pyramid, and its LSM pyramid (spline coefficients) is built when
+//   it is searched;
 // - any other image only ever gives LSM templates, at its own 2D points:
 //   refinement reads its keypoints' levels and level 0, densification every
 //   level at its observations. Of such an image only 8-bit tiles covering windows
@@ -46,11 +47,13 @@ class LsmImageStore {
         LsmTemplateReach(LsmOptions()) + static_cast<int>(DensifyOptions().window_shift_px + 0.5);
     // The same on the coarser levels, where windows are not shifted.
     int coarse_template_reach_px = LsmTemplateReach(LsmOptions());
-    // Budget of the tiles kept of older images. A 6 MP photo's 1 500
-    // keypoints keep 3.2 MB on three levels (bench/bench_photos): 1 GB keeps
-    // the templates of the last 300 or so photos used, which retrieval's
-    // candidates mostly are.
-    int window_budget_megabytes = 1024;
+    // Budget of the tiles kept of older images. A photo's 1 500 keypoints
+    // keep 3.2 MB on three levels at 6 MP, 6.2 MB at 24 MP
+    // (bench/bench_photos): 768 MB keeps the templates of the last 240 or
+    // 120 photos used, which retrieval's candidates mostly are, and leaves
+    // a 24 MP session of 300 photos under 2 GB in all (docs/engine.md,
+    // "Memory", with what less costs in accuracy).
+    int window_budget_megabytes = 768;
     // Waiting images kept whole beyond the new one, the most recent first;
     // an older waiting image keeps only windows and, if it registers later,
     // registers without densification. Bounds the memory of a session that
@@ -75,7 +78,8 @@ class LsmImageStore {
   // The whole images, in the order they were added.
   std::vector<image_t> WholeImages() const;
 
-  // A whole image's float LSM pyramid, to search in. The last one built is
+  // A whole image's LSM pyramid, to search in with cubic-spline LSM
+  // (LsmImage::SplineOnly, from the 8-bit levels). The last one built is
   // kept: refinement and densification search the new image in one call.
   std::vector<LsmImage> SearchPyramid(image_t image_id);
   // The window of pyramid `level` around the full-resolution `point`,

@@ -1,6 +1,7 @@
 // Image bytes as a camera or a watched folder may deliver them: no input may
 // crash the decoder or make it allocate past its pixel bound, and a decoded
-// image must agree with the size its header claims.
+// image must agree with the size its header claims, in grey and in its
+// (perhaps reduced) colour.
 
 #include <cmath>
 #include <cstddef>
@@ -20,24 +21,34 @@ constexpr double kMaxImagePixels = 4e6;
 
 }  // namespace
 
-extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+namespace {
+
+// Whatever the bytes, a result is either an error or a grey image of the
+// claimed size with a colour one reduced by colour_reduction.
+void CheckDecode(const std::uint8_t* data, std::size_t size, int colour_long_side) {
   flysfm::DecodeOptions options;
   options.max_image_pixels = kMaxImagePixels;
-  const flysfm::DecodedImage decoded = flysfm::DecodeImageBytes(data, size, options);
-  if (decoded.ok() != decoded.error.empty() || decoded.ok() == decoded.image.empty()) {
+  const flysfm::DecodedImage decoded =
+      flysfm::DecodeImageBytes(data, size, options, colour_long_side);
+  if (decoded.ok() != decoded.error.empty() || decoded.ok() == decoded.image.empty() ||
+      decoded.ok() == decoded.grey.empty()) {
     __builtin_trap();
   }
   if (!decoded.ok()) {
     if (decoded.exif_focal_length_px || !decoded.camera_identity.empty()) __builtin_trap();
-    return 0;
+    return;
   }
-  const cv::Mat& image = decoded.image;
-  if (image.type() != CV_8UC3 || double(image.cols) * image.rows > kMaxImagePixels) {
+  const cv::Mat& grey = decoded.grey;
+  const int r = decoded.colour_reduction;
+  if (grey.type() != CV_8UC1 || double(grey.cols) * grey.rows > kMaxImagePixels ||
+      decoded.image.type() != CV_8UC3 || (r != 1 && r != 2 && r != 4 && r != 8) ||
+      (colour_long_side == 0 && r != 1) || decoded.image.cols != (grey.cols + r - 1) / r ||
+      decoded.image.rows != (grey.rows + r - 1) / r) {
     __builtin_trap();
   }
   const std::optional<flysfm::ImageSize> claimed = flysfm::ReadImageSize(data, size);
-  if (claimed && (claimed->width != std::uint32_t(image.cols) ||
-                  claimed->height != std::uint32_t(image.rows))) {
+  if (claimed && (claimed->width != std::uint32_t(grey.cols) ||
+                  claimed->height != std::uint32_t(grey.rows))) {
     __builtin_trap();
   }
   if (!PlausibleCameraIdentity(decoded.camera_identity)) {
@@ -47,5 +58,13 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
                                         *decoded.exif_focal_length_px > 0)) {
     __builtin_trap();
   }
+}
+
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  // At full size, and as the engine decodes (colour reduced where it can be).
+  CheckDecode(data, size, 0);
+  CheckDecode(data, size, 64);
   return 0;
 }

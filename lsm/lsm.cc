@@ -153,35 +153,71 @@ void MeanAndStddev(const Eigen::Ref<const Eigen::VectorXf>& values,
 
 }  // namespace
 
-LsmImage::LsmImage(const cv::Mat& grey, int origin_x, int origin_y)
-    : origin_x_(origin_x), origin_y_(origin_y) {
+namespace {
+
+void CheckLsmGrey(const cv::Mat& grey) {
   if (grey.empty() || grey.channels() != 1 ||
       (grey.depth() != CV_8U && grey.depth() != CV_32F)) {
     throw std::invalid_argument(
         "LSM needs a non-empty one-channel CV_8U or CV_32F image");
   }
-  grey.convertTo(pixels_, CV_32F);
-  if (!pixels_.isContinuous()) pixels_ = pixels_.clone();
-  ComputeSplineCoefficients();
 }
 
-void LsmImage::ComputeSplineCoefficients() {
-  spline_.create(pixels_.rows, pixels_.cols, CV_32F);
+// Rows (then columns) prefiltered at a time, so that the double-precision
+// copy stays small for a whole photo.
+constexpr Eigen::Index kSplineStrip = 64;
+
+// Rows [y, y + height) of a CV_8U or CV_32F image, transposed (each row a
+// column), in double precision.
+template <typename T>
+void StripFrom(const cv::Mat& grey, Eigen::Index y, Eigen::Index height, RowArrayXXd* strip) {
+  strip->resize(grey.cols, height);
+  const T* rows[kSplineStrip];
+  FLYSFM_CHECK(height <= kSplineStrip);
+  for (Eigen::Index r = 0; r < height; ++r) rows[r] = grey.ptr<T>(int(y + r));
+  // Along the strip's rows, which are contiguous; the image rows read stay
+  // in cache meanwhile.
+  for (int x = 0; x < grey.cols; ++x) {
+    double* out = &(*strip)(x, 0);
+    for (Eigen::Index r = 0; r < height; ++r) out[r] = double(rows[r][x]);
+  }
+}
+
+}  // namespace
+
+LsmImage::LsmImage(const cv::Mat& grey, int origin_x, int origin_y)
+    : origin_x_(origin_x), origin_y_(origin_y) {
+  CheckLsmGrey(grey);
+  grey.convertTo(pixels_, CV_32F);
+  if (!pixels_.isContinuous()) pixels_ = pixels_.clone();
+  ComputeSplineCoefficients(pixels_);
+}
+
+LsmImage LsmImage::SplineOnly(const cv::Mat& grey) {
+  CheckLsmGrey(grey);
+  LsmImage image;
+  image.ComputeSplineCoefficients(grey);
+  return image;
+}
+
+void LsmImage::ComputeSplineCoefficients(const cv::Mat& grey) {
+  spline_.create(grey.rows, grey.cols, CV_32F);
   using RowArrayXXf = Eigen::Array<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
-  const Eigen::Map<const RowArrayXXf> pixels(pixels_.ptr<float>(), pixels_.rows, pixels_.cols);
   Eigen::Map<RowArrayXXf> spline(spline_.ptr<float>(), spline_.rows, spline_.cols);
-  // In strips of rows (transposed, so each row is a column), then of
-  // columns, so that the double-precision copy stays small for a whole photo.
-  constexpr Eigen::Index kStrip = 64;
+  // In strips of rows (transposed, so each row is a column), then of columns.
   RowArrayXXd strip;
-  for (Eigen::Index y = 0; y < pixels.rows(); y += kStrip) {
-    const Eigen::Index height = std::min(kStrip, pixels.rows() - y);
-    strip = pixels.middleRows(y, height).transpose().cast<double>();
+  for (Eigen::Index y = 0; y < spline.rows(); y += kSplineStrip) {
+    const Eigen::Index height = std::min(kSplineStrip, spline.rows() - y);
+    if (grey.depth() == CV_8U) {
+      StripFrom<std::uint8_t>(grey, y, height, &strip);
+    } else {
+      StripFrom<float>(grey, y, height, &strip);
+    }
     SplinePrefilterColumns(strip);
     spline.middleRows(y, height) = strip.transpose().cast<float>();
   }
-  for (Eigen::Index x = 0; x < spline.cols(); x += kStrip) {
-    const Eigen::Index width = std::min(kStrip, spline.cols() - x);
+  for (Eigen::Index x = 0; x < spline.cols(); x += kSplineStrip) {
+    const Eigen::Index width = std::min(kSplineStrip, spline.cols() - x);
     strip = spline.middleCols(x, width).cast<double>();
     SplinePrefilterColumns(strip);
     spline.middleCols(x, width) = strip.cast<float>();
@@ -189,10 +225,10 @@ void LsmImage::ComputeSplineCoefficients() {
 }
 
 LsmImage LsmImage::HalfResolution() const {
-  FLYSFM_CHECK(origin_x_ == 0 && origin_y_ == 0);
+  FLYSFM_CHECK(origin_x_ == 0 && origin_y_ == 0 && has_pixels());
   LsmImage half;
   cv::pyrDown(pixels_, half.pixels_);
-  half.ComputeSplineCoefficients();
+  half.ComputeSplineCoefficients(half.pixels_);
   return half;
 }
 
@@ -305,6 +341,7 @@ bool LsmMatcher::Sample(const LsmImage& image, const Warp& warp, int buffer) {
     SampleGridWith(image.spline_coefficients(), image.width(), warp.translation,
                    warp.linear, radius_, CubicSpline, values);
   } else {
+    FLYSFM_CHECK(image.has_pixels());
     SampleGridWith(image.data(), image.width(), warp.translation, warp.linear,
                    radius_, Bilinear, values);
   }
@@ -356,6 +393,7 @@ LsmResult LsmMatcher::Match(const LsmImage& image1,
   const Eigen::Vector2d offset1 = local1 - Eigen::Vector2d(anchor_x, anchor_y);
 
   const int stride = options_.window_size + 2;
+  FLYSFM_CHECK(image1.has_pixels());
   const float* pixels = image1.data();
   for (int v = -reach; v <= reach; ++v) {
     const float* row =

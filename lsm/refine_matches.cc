@@ -27,8 +27,9 @@ RefinedMatch RefineMatch(const TemplateOnLevel& template1, const FeatureFrame& f
   // The start of the affine part: the similarity between the two SIFT
   // frames, at the levels' resolutions. From the identity, LSM does not
   // reach a view from twice as near or a camera turned to portrait.
-  const double magnify =
-      feature1.scale > 0 ? feature2.scale / feature1.scale * to_level2 / to_level1 : 1.0;
+  const double magnify = feature1.scale > 0 && feature2.scale > 0
+                             ? feature2.scale / feature1.scale * to_level2 / to_level1
+                             : 1.0;
   const Eigen::Matrix2d similarity =
       magnify *
       Eigen::Rotation2Dd(feature2.orientation - feature1.orientation).toRotationMatrix();

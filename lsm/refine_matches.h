@@ -18,7 +18,9 @@ namespace flysfm {
 // What SIFT says of a feature: where, how large, which way.
 struct FeatureFrame {
   Eigen::Vector2d xy = Eigen::Vector2d::Zero();  // full resolution, OpenCV convention
-  double scale = 0;        // diameter in full-resolution pixels (Keypoint::scale)
+  // Diameter in full-resolution pixels (Keypoint::scale); 0: unknown, and
+  // with it the magnification between the frames (LSM starts unscaled).
+  double scale = 0;
   double orientation = 0;  // radians (Keypoint::orientation)
 };
 

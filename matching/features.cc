@@ -72,28 +72,37 @@ FeatureSet ExtractFeatures(const cv::Mat& image, const SiftOptions& options) {
   return ExtractFeatures(image, grey, options);
 }
 
-FeatureSet ExtractFeatures(const cv::Mat& image, cv::Mat grey, const SiftOptions& options) {
+FeatureSet ExtractFeatures(const cv::Mat& colour, cv::Mat grey, const SiftOptions& options) {
   if (!options.Check()) throw std::invalid_argument("invalid SiftOptions");
-  if (image.empty()) throw std::invalid_argument("ExtractFeatures: empty image");
-  if (image.depth() != CV_8U || (image.channels() != 1 && image.channels() != 3)) {
+  if (colour.empty()) throw std::invalid_argument("ExtractFeatures: empty image");
+  if (colour.depth() != CV_8U || (colour.channels() != 1 && colour.channels() != 3)) {
     throw std::invalid_argument("ExtractFeatures: need an 8-bit grey or BGR image");
   }
-  if (grey.size() != image.size() || grey.type() != CV_8UC1) {
+  if (grey.type() != CV_8UC1) {
     throw std::invalid_argument("ExtractFeatures: `grey` must be the image in 8-bit grey");
   }
-  const int long_side = std::max(image.cols, image.rows);
+  const int reduction = std::max(1, int(std::lround(double(grey.cols) / colour.cols)));
+  if ((reduction != 1 && reduction != 2 && reduction != 4 && reduction != 8) ||
+      colour.cols != (grey.cols + reduction - 1) / reduction ||
+      colour.rows != (grey.rows + reduction - 1) / reduction) {
+    throw std::invalid_argument(
+        "ExtractFeatures: the colour image must be `grey`'s size or reduced by 2, 4 or 8");
+  }
+  const int width = grey.cols;
+  const int height = grey.rows;
+  const int long_side = std::max(width, height);
   double scale = 1.0;  // full resolution / extraction resolution
   if (long_side > options.max_image_size) {
     scale = double(long_side) / options.max_image_size;
     cv::Mat small;
     cv::resize(grey, small,
-               cv::Size(std::max(1, int(std::lround(image.cols / scale))),
-                        std::max(1, int(std::lround(image.rows / scale)))),
+               cv::Size(std::max(1, int(std::lround(width / scale))),
+                        std::max(1, int(std::lround(height / scale)))),
                0, 0, cv::INTER_AREA);
     grey = small;
   }
-  const double scale_x = double(image.cols) / grey.cols;
-  const double scale_y = double(image.rows) / grey.rows;
+  const double scale_x = double(width) / grey.cols;
+  const double scale_y = double(height) / grey.rows;
 
   cv::Ptr<cv::SIFT> sift = cv::SIFT::create(0, options.num_octave_layers,
                                              options.peak_threshold, options.edge_threshold);
@@ -109,8 +118,8 @@ FeatureSet ExtractFeatures(const cv::Mat& image, cv::Mat grey, const SiftOptions
                 cv_descriptors.cols == 128 && cv_descriptors.type() == CV_32F));
 
   FeatureSet features;
-  features.width = image.cols;
-  features.height = image.rows;
+  features.width = width;
+  features.height = height;
   const int n = static_cast<int>(cv_keypoints.size());
   features.keypoints.resize(n);
   features.descriptors.resize(n, 128);
@@ -122,15 +131,16 @@ FeatureSet ExtractFeatures(const cv::Mat& image, cv::Mat grey, const SiftOptions
     out.y = float((kp.pt.y + 0.5) * scale_y - 0.5);
     out.scale = float(kp.size * scale);
     out.orientation = float(kp.angle * M_PI / 180.0);
-    const int px = std::clamp(int(std::lround(out.x)), 0, image.cols - 1);
-    const int py = std::clamp(int(std::lround(out.y)), 0, image.rows - 1);
-    if (image.channels() == 3) {
-      const cv::Vec3b bgr = image.at<cv::Vec3b>(py, px);
+    // A reduced pixel i covers full pixels [i r, i r + r).
+    const int px = std::clamp(int(std::floor((out.x + 0.5) / reduction)), 0, colour.cols - 1);
+    const int py = std::clamp(int(std::floor((out.y + 0.5) / reduction)), 0, colour.rows - 1);
+    if (colour.channels() == 3) {
+      const cv::Vec3b bgr = colour.at<cv::Vec3b>(py, px);
       out.b = bgr[0];
       out.g = bgr[1];
       out.r = bgr[2];
     } else {
-      out.r = out.g = out.b = image.at<std::uint8_t>(py, px);
+      out.r = out.g = out.b = colour.at<std::uint8_t>(py, px);
     }
     std::copy_n(cv_descriptors.ptr<float>(i), 128, features.descriptors.row(i).data());
   }

@@ -84,8 +84,10 @@ struct SiftOptions {
 // texture gives an empty set.
 FeatureSet ExtractFeatures(const cv::Mat& image, const SiftOptions& options);
 // The same when the caller has the image in grey already (the engine keeps it
-// for LSM): `grey` is `image` converted to 8-bit grey, or `image` itself.
-FeatureSet ExtractFeatures(const cv::Mat& image, cv::Mat grey, const SiftOptions& options);
+// for LSM): `grey` is the image in 8-bit grey at full size; `colour`, which
+// gives the keypoints' colours, is it in grey or BGR at full size or reduced
+// by 2, 4 or 8 as JPEG's DCT scaling gives it (each side rounded up).
+FeatureSet ExtractFeatures(const cv::Mat& colour, cv::Mat grey, const SiftOptions& options);
 
 // A feature set in the engine's checkpoint format. Read throws
 // std::runtime_error on a truncated or inconsistent stream.

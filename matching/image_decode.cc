@@ -13,6 +13,7 @@
 
 #include <libexif/exif-data.h>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 namespace flysfm {
 namespace {
@@ -216,7 +217,7 @@ ExifFields ReadExif(const std::uint8_t* data, std::size_t size, int width, int h
 }
 
 DecodedImage DecodeImageBytes(const std::uint8_t* data, std::size_t size,
-                              const DecodeOptions& options) {
+                              const DecodeOptions& options, int colour_long_side) {
   if (data == nullptr || size == 0) return Failure("empty image data (0 bytes)");
   if (size > options.max_file_bytes) {
     return Failure(std::to_string(size) + " bytes, above max_file_bytes (" +
@@ -253,22 +254,42 @@ DecodedImage DecodeImageBytes(const std::uint8_t* data, std::size_t size,
                   options.max_image_pixels / 1e6);
     return Failure(message);
   }
-  cv::Mat decoded;
+  // The largest DCT reduction whose long side keeps `colour_long_side`
+  // pixels; libjpeg rounds each scaled side up.
+  const std::uint32_t long_side = std::max(claimed->width, claimed->height);
+  int reduction = 1;
+  while (jpeg && colour_long_side > 0 && reduction < 8 &&
+         (long_side + 2 * reduction - 1) / (2 * reduction) >= std::uint32_t(colour_long_side)) {
+    reduction *= 2;
+  }
+  DecodedImage result;
+  result.colour_reduction = reduction;
   try {
     const cv::Mat buffer(1, static_cast<int>(size), CV_8U,
                          const_cast<std::uint8_t*>(data));
-    decoded = cv::imdecode(buffer, cv::IMREAD_COLOR | cv::IMREAD_IGNORE_ORIENTATION);
+    const int colour_flag = reduction == 8   ? cv::IMREAD_REDUCED_COLOR_8
+                            : reduction == 4 ? cv::IMREAD_REDUCED_COLOR_4
+                            : reduction == 2 ? cv::IMREAD_REDUCED_COLOR_2
+                                             : cv::IMREAD_COLOR;
+    result.image = cv::imdecode(buffer, colour_flag | cv::IMREAD_IGNORE_ORIENTATION);
+    if (reduction == 1) {
+      if (!result.image.empty()) cv::cvtColor(result.image, result.grey, cv::COLOR_BGR2GRAY);
+    } else {
+      result.grey = cv::imdecode(buffer, cv::IMREAD_GRAYSCALE | cv::IMREAD_IGNORE_ORIENTATION);
+    }
   } catch (const cv::Exception& e) {
     return Failure(std::string("image decoder error: ") + e.what());
   }
-  if (decoded.empty()) {
+  if (result.image.empty() || result.grey.empty()) {
     return Failure("not a decodable image (unknown format or corrupt data, " +
                    std::to_string(size) + " bytes)");
   }
-  DecodedImage result;
-  result.image = decoded;
+  if (result.image.cols != (result.grey.cols + reduction - 1) / reduction ||
+      result.image.rows != (result.grey.rows + reduction - 1) / reduction) {
+    return Failure("the JPEG decodes to different sizes in colour and in grey");
+  }
   if (jpeg) {
-    ExifFields exif = ReadExif(data, size, decoded.cols, decoded.rows);
+    ExifFields exif = ReadExif(data, size, result.grey.cols, result.grey.rows);
     result.exif_focal_length_px = exif.focal_length_px;
     result.camera_identity = std::move(exif.camera_identity);
   }
@@ -276,8 +297,8 @@ DecodedImage DecodeImageBytes(const std::uint8_t* data, std::size_t size,
 }
 
 DecodedImage DecodeImageBytes(const std::vector<std::uint8_t>& bytes,
-                              const DecodeOptions& options) {
-  return DecodeImageBytes(bytes.data(), bytes.size(), options);
+                              const DecodeOptions& options, int colour_long_side) {
+  return DecodeImageBytes(bytes.data(), bytes.size(), options, colour_long_side);
 }
 
 std::optional<std::vector<std::uint8_t>> ReadImageFileBytes(const std::string& path,
@@ -302,12 +323,13 @@ std::optional<std::vector<std::uint8_t>> ReadImageFileBytes(const std::string& p
   return bytes;
 }
 
-DecodedImage DecodeImageFile(const std::string& path, const DecodeOptions& options) {
+DecodedImage DecodeImageFile(const std::string& path, const DecodeOptions& options,
+                             int colour_long_side) {
   std::string error;
   const std::optional<std::vector<std::uint8_t>> bytes =
       ReadImageFileBytes(path, options.max_file_bytes, &error);
   if (!bytes) return Failure(error);
-  DecodedImage result = DecodeImageBytes(*bytes, options);
+  DecodedImage result = DecodeImageBytes(*bytes, options, colour_long_side);
   if (!result.ok()) result.error = "'" + path + "': " + result.error;
   return result;
 }

@@ -15,10 +15,14 @@
 namespace flysfm {
 
 struct DecodedImage {
-  // 8-bit BGR, in the file's stored pixel grid (EXIF orientation is ignored so
-  // that pixel coordinates agree with calibrations made on the raw frames).
-  // Empty on failure.
+  // 8-bit grey at the file's stored size, in its stored pixel grid (EXIF
+  // orientation is ignored so that pixel coordinates agree with calibrations
+  // made on the raw frames). Empty on failure.
+  cv::Mat grey;
+  // 8-bit BGR, the stored size divided by `colour_reduction` (rounded up).
   cv::Mat image;
+  // 1, or 2, 4 or 8 when a JPEG's colour was decoded by DCT scaling.
+  int colour_reduction = 1;
   // Why decoding failed; empty on success.
   std::string error;
   // The focal length in pixels from a JPEG's EXIF, when it says enough:
@@ -83,10 +87,18 @@ ExifFields ReadExif(const std::uint8_t* data, std::size_t size, int width, int h
 // IEND chunk: a truncated file is a failure even where the codec would
 // return a partly grey image. A header claiming more than `max_image_pixels`
 // is a failure before any decoding.
+//
+// With `colour_long_side` > 0 a JPEG's colour is decoded at the smallest
+// size, 1/2, 1/4 or 1/8, whose long side keeps at least that many pixels
+// (libjpeg's scaled IDCT, one pass), and its grey at full size from the
+// luma alone: a full 24 MP colour decode costs two to three times the grey
+// one and 72 MB, for colours that are read only at keypoints found on a
+// 1 600-pixel copy. PNGs and small JPEGs are decoded once, in colour, and
+// the grey converted from it.
 DecodedImage DecodeImageBytes(const std::uint8_t* data, std::size_t size,
-                              const DecodeOptions& options = {});
+                              const DecodeOptions& options = {}, int colour_long_side = 0);
 DecodedImage DecodeImageBytes(const std::vector<std::uint8_t>& bytes,
-                              const DecodeOptions& options = {});
+                              const DecodeOptions& options = {}, int colour_long_side = 0);
 
 // The whole file, when it can be read and holds at most `max_bytes` (read
 // up to one byte more, so a file still growing is caught too); otherwise
@@ -97,7 +109,8 @@ std::optional<std::vector<std::uint8_t>> ReadImageFileBytes(const std::string& p
 
 // Reads the whole file, then as DecodeImageBytes. A file over
 // `max_file_bytes` is a failure without being read.
-DecodedImage DecodeImageFile(const std::string& path, const DecodeOptions& options = {});
+DecodedImage DecodeImageFile(const std::string& path, const DecodeOptions& options = {},
+                             int colour_long_side = 0);
 
 // Whether the name ends in an image extension: jpg, jpeg, png, tif, tiff,
 // bmp, pgm, ppm; any case.

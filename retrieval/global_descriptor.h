@@ -21,7 +21,8 @@ class GlobalDescriptorExtractor {
 
   // The descriptor of one image, L2-normalised. Extractors built on local
   // features read `features`; those that read pixels (a CNN) read `image`,
-  // the decoded 8-bit BGR frame. An extractor may accept an empty `image`
+  // the decoded 8-bit BGR frame, which the engine decodes reduced to about
+  // SIFT's size (DecodedImage). An extractor may accept an empty `image`
   // when it does not use it (VLAD does).
   virtual Eigen::VectorXf Compute(const cv::Mat& image, const FeatureSet& features) const = 0;
 };

@@ -57,12 +57,12 @@ RetrievalModel TrainRetrievalModelFromFiles(const std::vector<std::string>& imag
   RetrievalTrainingReport local;
   std::vector<FeatureSet> features;
   for (const std::string& path : image_paths) {
-    const DecodedImage decoded = DecodeImageFile(path);
+    const DecodedImage decoded = DecodeImageFile(path, {}, options.sift.max_image_size);
     if (!decoded.ok()) {
       local.skipped.push_back(decoded.error);
       continue;
     }
-    features.push_back(ExtractFeatures(decoded.image, options.sift));
+    features.push_back(ExtractFeatures(decoded.image, decoded.grey, options.sift));
     local.num_features += features.back().size();
   }
   std::vector<const FeatureSet*> pointers;

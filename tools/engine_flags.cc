@@ -55,6 +55,12 @@ void AddEngineFlags(CLI::App* command, EngineFlags* flags) {
                       "(a corrupt or hostile file may claim 60000 x 60000)")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
+  command->add_option("--lsm-window-budget", flags->lsm_window_budget_mb,
+                      "Megabytes of older images' pixels kept for LSM (windows around their "
+                      "points); past it the least recently used image's are dropped and its "
+                      "later pairs stay unrefined")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
   command->add_option("--refresh-seconds", flags->refresh_seconds,
                       "Rewrite the model in --out at most this often while running")
       ->check(CLI::NonNegativeNumber)
@@ -71,6 +77,7 @@ Engine EngineFlags::MakeEngine() const {
   options.final_global_ba = !no_global_ba;
   options.refinement.enabled = !no_refinement;
   options.decode.max_image_pixels = max_megapixels * 1e6;
+  options.lsm_images.window_budget_megabytes = lsm_window_budget_mb;
   std::optional<Camera> known_camera;
   if (!camera.empty()) known_camera = Camera::FromString(camera, 0, 0);
   std::shared_ptr<const RetrievalModel> model;

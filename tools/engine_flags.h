@@ -35,6 +35,8 @@ struct EngineFlags {
   bool resume = false;
   // DecodeOptions::max_image_pixels, in megapixels.
   double max_megapixels = DecodeOptions().max_image_pixels / 1e6;
+  // LsmImageStore::Options::window_budget_megabytes.
+  int lsm_window_budget_mb = LsmImageStore::Options().window_budget_megabytes;
   ViewFlags view;  // --view [PORT], --view-lan
 
   // Throws std::invalid_argument with a one-line message for a bad camera or

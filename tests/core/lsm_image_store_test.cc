@@ -62,12 +62,25 @@ void CheckWindowsMatchLikeWholeImage(LsmImageStore* store, image_t image_id,
   CHECK(num_converged > int(points.size()) / 2);
 }
 
-TEST_CASE("A template cut from the kept windows matches as the whole image does") {
+// A default store holding image 1 whole (a 400 x 300 texture), and the
+// image's float pyramid built apart.
+struct OneImageStore {
+  explicit OneImageStore(int seed)
+      : grey(Texture(400, 300, seed)),
+        whole(BuildLsmPyramid(grey, options.num_pyramid_levels)) {
+    store.Add(1, grey);
+  }
   LsmImageStore::Options options;
-  LsmImageStore store(options);
-  const cv::Mat grey = Texture(400, 300, 1);
-  store.Add(1, grey);
-  const std::vector<LsmImage> whole = BuildLsmPyramid(grey, options.num_pyramid_levels);
+  LsmImageStore store{options};
+  cv::Mat grey;
+  std::vector<LsmImage> whole;
+};
+
+TEST_CASE("A template cut from the kept windows matches as the whole image does") {
+  OneImageStore one(1);
+  const LsmImageStore::Options& options = one.options;
+  LsmImageStore& store = one.store;
+  const std::vector<LsmImage>& whole = one.whole;
   // Away from the border, where the whole image's windows fit too.
   std::vector<Eigen::Vector2d> points;
   for (const Eigen::Vector2d& point : RandomPoints(60, 300, 200, 2)) {
@@ -107,6 +120,41 @@ TEST_CASE("A template cut from the kept windows matches as the whole image does"
   }
 }
 
+TEST_CASE("A search pyramid holds spline coefficients only and matches as the float one") {
+  OneImageStore one(3);
+  const LsmImageStore::Options& options = one.options;
+  const std::vector<LsmImage>& whole = one.whole;
+  const std::vector<LsmImage> search = one.store.SearchPyramid(1);
+  REQUIRE(search.size() == whole.size());
+  LsmMatcher matcher{LsmOptions()};
+  for (int level = 0; level < options.num_pyramid_levels; ++level) {
+    CAPTURE(level);
+    CHECK_FALSE(search[level].has_pixels());
+    CHECK(search[level].ByteSize() * 2 == whole[level].ByteSize());
+    REQUIRE(search[level].width() == whole[level].width());
+    REQUIRE(search[level].height() == whole[level].height());
+    // Level 0 is the same image, so the same coefficients; the coarser
+    // levels come from the 8-bit pyramid (the float pyramid's within half a
+    // grey level), as the templates of older images do.
+    const double tolerance_px = level == 0 ? 1e-6 : 0.05;
+    const double scale = 1.0 / (1 << level);
+    int num_converged = 0;
+    for (const Eigen::Vector2d& point : RandomPoints(40, 300, 200, 4)) {
+      const Eigen::Vector2d at_level = scale * (point + Eigen::Vector2d(50, 50));
+      const Eigen::Vector2d start = at_level + Eigen::Vector2d(0.6, -0.4);
+      const LsmResult in_whole = matcher.Match(whole[level], at_level, whole[level], start,
+                                               Eigen::Matrix2d::Identity());
+      const LsmResult in_search = matcher.Match(whole[level], at_level, search[level], start,
+                                                Eigen::Matrix2d::Identity());
+      CHECK(in_search.status == in_whole.status);
+      if (!in_whole.Converged() || !in_search.Converged()) continue;
+      ++num_converged;
+      CHECK((in_search.point2 - in_whole.point2).norm() < tolerance_px);
+    }
+    CHECK(num_converged > 20);
+  }
+}
+
 TEST_CASE("Older images keep only their windows, within the budget, least recently used out") {
   LsmImageStore::Options options;
   const int width = 1600, height = 1200;
@@ -119,12 +167,12 @@ TEST_CASE("Older images keep only their windows, within the budget, least recent
     CHECK(store.WholeImages() == std::vector<image_t>{1, 2});
     const std::size_t whole_pyramid = store.whole_bytes() / 2;
     CHECK(whole_pyramid >= std::size_t(width) * height);
-    // A whole image is searched in its float pyramid, built once and kept
+    // A whole image is searched in its spline pyramid, built once and kept
     // for the next call.
     const std::vector<LsmImage> search = store.SearchPyramid(2);
     REQUIRE(search.size() == std::size_t(options.num_pyramid_levels));
     CHECK(search[0].width() == width);
-    CHECK(store.SearchPyramid(2)[0].data() == search[0].data());
+    CHECK(store.SearchPyramid(2)[0].spline_coefficients() == search[0].spline_coefficients());
     const std::size_t before = store.whole_bytes();
     store.KeepWindows(1, points);
     CHECK(store.WholeImages() == std::vector<image_t>{2});

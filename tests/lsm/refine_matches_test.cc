@@ -83,6 +83,10 @@ TEST_CASE("RefineMatch refines true matches and drops false ones") {
   outcome = RefineRandomMatches(pair, 0.0, 0.0, 0.0, 0.02);
   CHECK(outcome.true_kept >= 0.95 * 200);
   CHECK(outcome.false_kept <= 1);
+  // A scale on one side only says nothing of the magnification either.
+  outcome = RefineRandomMatches(pair, 5.0, 0.0, 0.0, 0.02);
+  CHECK(outcome.true_kept >= 0.95 * 200);
+  CHECK(outcome.false_kept <= 1);
 }
 
 // A view from twice as near, turned by 35 deg: the features are matched on

@@ -145,6 +145,33 @@ TEST_CASE("with the grey image given, extraction is the same, and a wrong grey i
   CHECK_THROWS_AS(ExtractFeatures(image, image, SiftOptions()), std::invalid_argument);
   CHECK_THROWS_AS(ExtractFeatures(image, cv::Mat(10, 10, CV_8U), SiftOptions()),
                   std::invalid_argument);
+  CHECK_THROWS_AS(ExtractFeatures(cv::Mat(80, 107, CV_8UC3), grey, SiftOptions()),
+                  std::invalid_argument);  // 320 / 107: no reduction of 2, 4 or 8
+}
+
+TEST_CASE("colours come from a reduced colour image; the features from the full grey") {
+  // Blue and green constant over 4 x 4 blocks, so a block's average is each
+  // of its pixels' colour.
+  const cv::Mat texture = MakeTexture(322, 242, 8);
+  const cv::Mat reduced = MakeTexture(81, 61, 9);
+  cv::Mat blocks;
+  cv::resize(reduced, blocks, cv::Size(324, 244), 0, 0, cv::INTER_NEAREST);
+  blocks = blocks(cv::Rect(0, 0, 322, 242)).clone();
+  cv::Mat bgr;
+  cv::merge(std::vector<cv::Mat>{blocks, 255 - blocks, texture}, bgr);
+  cv::Mat reduced_bgr;
+  cv::merge(std::vector<cv::Mat>{reduced, 255 - reduced, cv::Mat(61, 81, CV_8U, cv::Scalar(0))},
+            reduced_bgr);
+  const FeatureSet full = ExtractFeatures(bgr, texture, SiftOptions());
+  const FeatureSet from_reduced = ExtractFeatures(reduced_bgr, texture, SiftOptions());
+  REQUIRE(full.size() > 50);
+  REQUIRE(from_reduced.size() == full.size());
+  CHECK(from_reduced.descriptors == full.descriptors);
+  for (int i = 0; i < full.size(); ++i) {
+    REQUIRE(from_reduced.keypoints[i].x == full.keypoints[i].x);
+    REQUIRE(from_reduced.keypoints[i].b == full.keypoints[i].b);
+    REQUIRE(from_reduced.keypoints[i].g == full.keypoints[i].g);
+  }
 }
 
 }  // namespace

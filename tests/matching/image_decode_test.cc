@@ -9,6 +9,7 @@
 
 #include <catch2/catch.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "io/synthetic/procedural_texture.h"
 #include "tests/testing/exif_jpeg.h"
@@ -38,6 +39,51 @@ TEST_CASE("PNG and JPEG bytes decode to the encoded image") {
   const DecodedImage grey_png = DecodeImageBytes(Encode(grey, ".png"));
   REQUIRE(grey_png.ok());
   CHECK(grey_png.image.channels() == 3);
+}
+
+TEST_CASE("the grey image is full size; a JPEG's colour is reduced as far as asked") {
+  // Odd sizes: libjpeg rounds each reduced side up.
+  const cv::Mat image = MakeTexture(1001, 701, 4, true);
+  const std::vector<std::uint8_t> jpeg = Encode(image, ".jpg");
+  const DecodedImage full = DecodeImageBytes(jpeg);
+  REQUIRE(full.ok());
+  CHECK(full.colour_reduction == 1);
+  CHECK(full.image.size() == image.size());
+  cv::Mat full_grey;
+  cv::cvtColor(full.image, full_grey, cv::COLOR_BGR2GRAY);
+  CHECK(cv::norm(full.grey, full_grey, cv::NORM_INF) == 0);
+
+  // long side 1001: /2 gives 501, /4 251, /8 126 pixels.
+  for (const auto& [long_side, reduction] :
+       std::vector<std::pair<int, int>>{{1001, 1}, {501, 2}, {300, 2}, {251, 4}, {200, 4},
+                                        {126, 8}, {1, 8}}) {
+    CAPTURE(long_side);
+    const DecodedImage reduced = DecodeImageBytes(jpeg, DecodeOptions(), long_side);
+    REQUIRE(reduced.ok());
+    CHECK(reduced.colour_reduction == reduction);
+    CHECK(reduced.image.cols == (1001 + reduction - 1) / reduction);
+    CHECK(reduced.image.rows == (701 + reduction - 1) / reduction);
+    // The luma alone decodes to the grey of the colour decode, give or take
+    // rounding in the colour conversion.
+    REQUIRE(reduced.grey.size() == image.size());
+    CHECK(cv::norm(reduced.grey, full_grey, cv::NORM_INF) <= 1);
+    // The reduced colour is the full one averaged over reduction x reduction
+    // blocks (the DCT's low frequencies), away from the rounded-up edge.
+    const int w = 1001 / reduction;
+    const int h = 701 / reduction;
+    cv::Mat averaged;
+    cv::resize(full.image(cv::Rect(0, 0, w * reduction, h * reduction)), averaged,
+               cv::Size(w, h), 0, 0, cv::INTER_AREA);
+    cv::Mat difference;
+    cv::absdiff(reduced.image(cv::Rect(0, 0, w, h)), averaged, difference);
+    CHECK(cv::mean(difference)[0] < 3.0);
+  }
+  // A PNG is decoded once, at full size.
+  const DecodedImage png = DecodeImageBytes(Encode(image, ".png"), DecodeOptions(), 100);
+  REQUIRE(png.ok());
+  CHECK(png.colour_reduction == 1);
+  CHECK(png.image.size() == image.size());
+  CHECK(png.grey.size() == image.size());
 }
 
 TEST_CASE("bad bytes give an error and never a crash") {

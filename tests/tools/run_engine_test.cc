@@ -138,6 +138,24 @@ TEST_CASE("Images over --max-megapixels are rejected before decoding, with the r
   CHECK_THROWS_AS(bad.parse("--out x --max-megapixels 0", false), CLI::ValidationError);
 }
 
+TEST_CASE("The flag --lsm-window-budget sets the engine's LSM memory; a negative one is refused") {
+  CLI::App app;
+  EngineFlags flags;
+  AddEngineFlags(&app, &flags);
+  app.parse("--out x --lsm-window-budget 300", false);
+  CHECK(flags.MakeEngine().options().lsm_images.window_budget_megabytes == 300);
+  CLI::App defaults;
+  EngineFlags default_flags;
+  AddEngineFlags(&defaults, &default_flags);
+  defaults.parse("--out x", false);
+  CHECK(default_flags.MakeEngine().options().lsm_images.window_budget_megabytes ==
+        LsmImageStore::Options().window_budget_megabytes);
+  CLI::App bad;
+  EngineFlags bad_flags;
+  AddEngineFlags(&bad, &bad_flags);
+  CHECK_THROWS_AS(bad.parse("--out x --lsm-window-budget -1", false), CLI::ValidationError);
+}
+
 TEST_CASE("A failed output write is counted and the run goes on") {
   const fs::path dir = testing::MakeTempDir("run_engine_write");
   testing::WriteTestJpegs(dir / "images", kImages);
