@@ -6,7 +6,6 @@
 #include <stdexcept>
 #include <utility>
 
-
 #include "core/scene_bundle.h"
 #include "matching/image_decode.h"
 

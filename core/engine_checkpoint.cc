@@ -3,7 +3,6 @@
 
 #include <algorithm>
 
-
 #include "core/engine.h"
 #include "geometry/binary_io.h"
 #include "geometry/check.h"
