@@ -137,7 +137,6 @@ std::vector<LsmImage> LsmImageStore::SearchPyramid(image_t image_id) {
     // Every level from the 8-bit pyramid the templates of older images are
     // cut from, without the float pixels a search never reads.
     search_pyramid_.clear();
-    search_pyramid_.shrink_to_fit();
     for (const Level& level : entry.levels) {
       search_pyramid_.push_back(LsmImage::SplineOnly(level.whole));
     }

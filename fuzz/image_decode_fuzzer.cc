@@ -42,8 +42,8 @@ void CheckDecode(const std::uint8_t* data, std::size_t size, int colour_long_sid
   const int r = decoded.colour_reduction;
   if (grey.type() != CV_8UC1 || double(grey.cols) * grey.rows > kMaxImagePixels ||
       decoded.image.type() != CV_8UC3 || (r != 1 && r != 2 && r != 4 && r != 8) ||
-      (colour_long_side == 0 && r != 1) || decoded.image.cols != (grey.cols + r - 1) / r ||
-      decoded.image.rows != (grey.rows + r - 1) / r) {
+      (colour_long_side == 0 && r != 1) ||
+      decoded.image.size() != flysfm::DctReducedSize(grey.size(), r)) {
     __builtin_trap();
   }
   const std::optional<flysfm::ImageSize> claimed = flysfm::ReadImageSize(data, size);

@@ -151,10 +151,6 @@ void MeanAndStddev(const Eigen::Ref<const Eigen::VectorXf>& values,
       values.cast<double>().squaredNorm() / values.size() - *mean * *mean));
 }
 
-}  // namespace
-
-namespace {
-
 void CheckLsmGrey(const cv::Mat& grey) {
   if (grey.empty() || grey.channels() != 1 ||
       (grey.depth() != CV_8U && grey.depth() != CV_32F)) {

@@ -9,6 +9,7 @@
 
 #include "geometry/binary_io.h"
 #include "geometry/check.h"
+#include "matching/image_decode.h"
 
 namespace flysfm {
 
@@ -83,8 +84,7 @@ FeatureSet ExtractFeatures(const cv::Mat& colour, cv::Mat grey, const SiftOption
   }
   const int reduction = std::max(1, int(std::lround(double(grey.cols) / colour.cols)));
   if ((reduction != 1 && reduction != 2 && reduction != 4 && reduction != 8) ||
-      colour.cols != (grey.cols + reduction - 1) / reduction ||
-      colour.rows != (grey.rows + reduction - 1) / reduction) {
+      colour.size() != DctReducedSize(grey.size(), reduction)) {
     throw std::invalid_argument(
         "ExtractFeatures: the colour image must be `grey`'s size or reduced by 2, 4 or 8");
   }

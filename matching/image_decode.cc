@@ -284,8 +284,7 @@ DecodedImage DecodeImageBytes(const std::uint8_t* data, std::size_t size,
     return Failure("not a decodable image (unknown format or corrupt data, " +
                    std::to_string(size) + " bytes)");
   }
-  if (result.image.cols != (result.grey.cols + reduction - 1) / reduction ||
-      result.image.rows != (result.grey.rows + reduction - 1) / reduction) {
+  if (result.image.size() != DctReducedSize(result.grey.size(), reduction)) {
     return Failure("the JPEG decodes to different sizes in colour and in grey");
   }
   if (jpeg) {

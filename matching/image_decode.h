@@ -81,6 +81,12 @@ struct ExifFields {
 // pixels scale with the image). Bytes without readable EXIF give no fields.
 ExifFields ReadExif(const std::uint8_t* data, std::size_t size, int width, int height);
 
+// The size libjpeg's DCT scaling gives an image of `full` size reduced by
+// `reduction` (2, 4 or 8; 1 leaves it): each side rounded up.
+inline cv::Size DctReducedSize(const cv::Size& full, int reduction) {
+  return {(full.width + reduction - 1) / reduction, (full.height + reduction - 1) / reduction};
+}
+
 // Decodes JPEG and PNG; other bytes are a failure (OpenCV's other decoders
 // allocate what a hostile header claims, and its DICOM reader aborts on a
 // malformed file). A JPEG must end with its EOI marker and a PNG with its
