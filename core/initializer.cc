@@ -4,13 +4,16 @@
 #include <stdexcept>
 
 #include "geometry/binary_io.h"
+#include "geometry/essential_matrix.h"
+#include "geometry/fundamental_matrix.h"
 #include "geometry/triangulation.h"
 
 namespace flysfm {
 
 bool Initializer::Options::Check() const {
   return min_num_inliers >= 5 && min_tri_angle_deg >= 0 && min_num_points >= 2 &&
-         min_point_angle_deg >= 0 && max_error_px > 0;
+         min_point_angle_deg >= 0 && max_error_px > 0 && min_focal_length_factor > 0 &&
+         max_focal_length_factor > min_focal_length_factor && focal_from_fundamental.Check();
 }
 
 Initializer::Initializer(const Options& options) : options_(options) {
@@ -21,7 +24,56 @@ void Initializer::AddPair(image_t image_id1, image_t image_id2, const TwoViewGeo
                           bool intrinsics_known) {
   if (!geometry.has_pose || geometry.config == TwoViewConfiguration::kPanoramic) return;
   if (intrinsics_known && geometry.config == TwoViewConfiguration::kUncalibrated) return;
-  pairs_.push_back({image_id1, image_id2, geometry.cam2_from_cam1});
+  const bool fixes_focal = geometry.config == TwoViewConfiguration::kCalibrated ||
+                          geometry.config == TwoViewConfiguration::kUncalibrated;
+  pairs_.push_back({image_id1, image_id2, geometry.cam2_from_cam1,
+                    fixes_focal ? geometry.F : Eigen::Matrix3d::Zero()});
+}
+
+int Initializer::CorrectFocalLength(const Reconstruction& reconstruction, camera_t camera_id,
+                                    double* focal_length) const {
+  std::vector<Eigen::Matrix3d> fundamentals;
+  for (const Candidate& candidate : pairs_) {
+    if (candidate.F.isZero() ||
+        reconstruction.image(candidate.image_id1).camera_id != camera_id ||
+        reconstruction.image(candidate.image_id2).camera_id != camera_id) {
+      continue;
+    }
+    fundamentals.push_back(candidate.F);
+  }
+  const Camera& camera = reconstruction.camera(camera_id);
+  const double longer_side = std::max(camera.width, camera.height);
+  FocalFromFundamentalOptions options = options_.focal_from_fundamental;
+  options.min_focal_length = options_.min_focal_length_factor * longer_side;
+  options.max_focal_length = options_.max_focal_length_factor * longer_side;
+  const Eigen::Matrix3d K = CalibrationMatrix(camera);
+  return FocalFromFundamentals(fundamentals, K.topRightCorner<2, 1>(),
+                               camera.MeanFocalLength(), options, focal_length);
+}
+
+void Initializer::RecomputePoses(const Reconstruction& reconstruction,
+                                 const MatchStore& matches) {
+  std::vector<Candidate> kept;
+  for (Candidate& candidate : pairs_) {
+    const Image& image1 = reconstruction.image(candidate.image_id1);
+    const Image& image2 = reconstruction.image(candidate.image_id2);
+    const Camera& camera1 = reconstruction.camera(image1.camera_id);
+    const Camera& camera2 = reconstruction.camera(image2.camera_id);
+    std::vector<Eigen::Vector2d> x1, x2;
+    for (const FeatureMatch& match :
+         matches.Matches(candidate.image_id1, candidate.image_id2)) {
+      x1.push_back(camera1.CamFromImg(image1.points2D[match.idx1].xy));
+      x2.push_back(camera2.CamFromImg(image2.points2D[match.idx2].xy));
+    }
+    if (!candidate.F.isZero()) {
+      const Eigen::Matrix3d E = EssentialFromFundamental(
+          candidate.F, CalibrationMatrix(camera1), CalibrationMatrix(camera2));
+      if (RelativePoseFromEssential(E, x1, x2, &candidate.cam2_from_cam1) == 0) continue;
+    }
+    RefineRelativePose(x1, x2, {}, &candidate.cam2_from_cam1);
+    kept.push_back(candidate);
+  }
+  pairs_ = std::move(kept);
 }
 
 std::vector<InitialPair> Initializer::RankPairs(const Reconstruction& reconstruction,
@@ -87,6 +139,7 @@ void Initializer::Write(std::ostream& out) const {
     WriteValue(out, pair.image_id1);
     WriteValue(out, pair.image_id2);
     WriteRigid3d(out, pair.cam2_from_cam1);
+    for (int k = 0; k < 9; ++k) WriteValue(out, pair.F(k));
   }
 }
 
@@ -96,6 +149,7 @@ void Initializer::Read(std::istream& in) {
     pair.image_id1 = ReadValue<image_t>(in, "initial pair");
     pair.image_id2 = ReadValue<image_t>(in, "initial pair");
     pair.cam2_from_cam1 = ReadRigid3d(in, "initial pair pose");
+    for (int k = 0; k < 9; ++k) pair.F(k) = ReadValue<double>(in, "initial pair F");
   }
 }
 

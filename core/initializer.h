@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "core/reconstruction.h"
+#include "geometry/focal_from_fundamental.h"
 #include "geometry/two_view_geometry.h"
 #include "matching/match_store.h"
 
@@ -43,6 +44,13 @@ class Initializer {
     // many pixels in both images.
     double min_point_angle_deg = 1.5;
     double max_error_px = 4.0;
+    // Without a calibration: the focal length the remembered pairs' F agree
+    // on, searched between these multiples of the image's longer side (a
+    // 14 mm lens on a full-frame body is 0.4, a 600 mm one 17), replaces the
+    // guess when they clearly prefer it (`focal_from_fundamental`).
+    double min_focal_length_factor = 0.25;
+    double max_focal_length_factor = 25;
+    FocalFromFundamentalOptions focal_from_fundamental;
 
     bool Check() const;
   };
@@ -58,6 +66,19 @@ class Initializer {
   // does not explain the matches.
   void AddPair(image_t image_id1, image_t image_id2, const TwoViewGeometry& geometry,
                bool intrinsics_known);
+
+  // The focal length that the F of the remembered pairs between two images of
+  // `camera_id` agree on (geometry/focal_from_fundamental; pairs where GRIC
+  // chose H are left out), when they clearly prefer it to the camera's
+  // (FocalFromFundamentals with the camera's focal length as reference).
+  // Returns 1 and sets *focal_length then, else 0.
+  int CorrectFocalLength(const Reconstruction& reconstruction, camera_t camera_id,
+                         double* focal_length) const;
+  // E = K2^T F K1 with the cameras as they are now, decomposed and refined on
+  // the pair's verified matches, replaces each remembered pose: after a
+  // camera's focal length changed, the poses found with the old one are
+  // distorted. A pair left without a pose is forgotten.
+  void RecomputePoses(const Reconstruction& reconstruction, const MatchStore& matches);
 
   // The remembered pairs that qualify, most well-triangulated points first.
   // Keypoints and cameras are read as they are now (after LSM refinement);
@@ -80,6 +101,8 @@ class Initializer {
     image_t image_id1;
     image_t image_id2;
     Rigid3d cam2_from_cam1;
+    // In pixels (zero where GRIC chose H: a plane fixes no focal length).
+    Eigen::Matrix3d F;
   };
 
   Options options_;

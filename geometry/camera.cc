@@ -94,8 +94,8 @@ Camera Camera::FromFocal(CameraModelId model_id, double focal, int width,
   camera.width = width;
   camera.height = height;
   camera.params.assign(camera.NumParams(), 0.0);
+  camera.SetFocalLength(focal);
   const int num_focal = camera.NumFocalParams();
-  for (int i = 0; i < num_focal; ++i) camera.params[i] = focal;
   camera.params[num_focal] = 0.5 * (width - 1);
   camera.params[num_focal + 1] = 0.5 * (height - 1);
   return camera;
@@ -138,6 +138,11 @@ double Camera::MeanFocalLength() const {
   double sum = 0;
   for (int i = 0; i < num_focal; ++i) sum += params[i];
   return sum / num_focal;
+}
+
+void Camera::SetFocalLength(double focal) {
+  const int num_focal = NumFocalParams();
+  for (int i = 0; i < num_focal; ++i) params[i] = focal;
 }
 
 double Camera::CamFromImgThreshold(double pixels) const {

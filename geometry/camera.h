@@ -39,6 +39,8 @@ struct Camera {
   bool HasDistortion() const;
 
   double MeanFocalLength() const;
+  // Every focal parameter (one, or fx and fy) set to `focal`.
+  void SetFocalLength(double focal);
   // Converts a pixel threshold into the normalized image plane.
   double CamFromImgThreshold(double pixels) const;
 

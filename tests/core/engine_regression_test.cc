@@ -27,8 +27,9 @@ struct Run {
 
 // As `flysfm batch` runs: the next frame prepared on the second core. An
 // empty `camera`: intrinsics unknown, as without --camera.
-Run RunEngine(std::vector<Frame> frames, const std::string& camera) {
-  Engine engine(Engine::Options(), camera.empty() ? std::nullopt
+Run RunEngine(std::vector<Frame> frames, const std::string& camera,
+              const Engine::Options& options = Engine::Options()) {
+  Engine engine(options, camera.empty() ? std::nullopt
                                                   : std::optional<Camera>(
                                                         Camera::FromString(camera, 0, 0)));
   FrameListSource source(std::move(frames));
@@ -107,10 +108,11 @@ TEST_CASE("TUM freiburg1_xyz, 330 frames with --shuffle 1: >= 95 % registered, A
 
 // fountain-P11 with `camera` ("": unknown): all registered, centres within
 // 5 mm RMS of the Strecha cameras after Sim3. Returns the run.
-Run CheckFountain(const std::string& camera, const std::string& label) {
+Run CheckFountain(const std::string& camera, const std::string& label,
+                  const Engine::Options& options = Engine::Options()) {
   const std::string dir = testing::DataPath("strecha/fountain-P11");
   const std::vector<Frame> frames = ListImageFolder(dir + "/images");
-  Run run = RunEngine(frames, camera);
+  Run run = RunEngine(frames, camera, options);
   CHECK(run.reconstruction.NumRegisteredImages() == frames.size());
   std::map<std::string, Eigen::Vector3d> truth;
   for (const Frame& frame : frames) {
@@ -131,12 +133,25 @@ TEST_CASE("Strecha fountain-P11 with its K: all registered, centres within 5 mm 
 // starts from its 1.2 x longer-side guess, 34 % above the true 2 759 px. The
 // floor is the calibrated one: a self-calibrated model of a building must be
 // as usable as a calibrated one.
-TEST_CASE("Strecha fountain-P11 without K: all registered, centres within 5 mm, focal within 1 %") {
-  const Run run = CheckFountain("", "fountain-P11 without K");
+void CheckFountainFocal(const std::string& label, const Engine::Options& options) {
+  const Run run = CheckFountain("", label, options);
   REQUIRE(run.reconstruction.cameras().size() == 1);
   const double focal = run.reconstruction.cameras().begin()->second.MeanFocalLength();
-  std::cout << "fountain-P11 without K: focal " << focal << " px (truth 2761.8)\n";
+  std::cout << label << ": focal " << focal << " px (truth 2761.8)\n";
   CHECK(std::abs(focal / 2761.82 - 1) <= 0.01);
+}
+
+TEST_CASE("Strecha fountain-P11 without K: all registered, centres within 5 mm, focal within 1 %") {
+  CheckFountainFocal("fountain-P11 without K", Engine::Options());
+}
+
+// A guess 2.8 times too long (7 680 px, a 200 mm lens where a 70 mm one was
+// used): the pairs' F correct it before the first pose (the start alone
+// gave 44 mm and a focal length 4.7 % off).
+TEST_CASE("Strecha fountain-P11 without K, guessed 2.8x too long: as from the usual guess") {
+  Engine::Options options;
+  options.unknown_focal_factor = 2.5;
+  CheckFountainFocal("fountain-P11 without K, guess 2.8x", options);
 }
 
 // Sceaux castle has no ground-truth poses, only its K (2 905.88 px): the
@@ -146,7 +161,7 @@ TEST_CASE("Strecha fountain-P11 without K: all registered, centres within 5 mm, 
 // 100_7110 (nearer, from the side) only since SIFT keeps the largest scales
 // and LSM matches each feature on its scale's pyramid level (docs/engine.md,
 // "Photos").
-void CheckSceauxFocal(bool keep_exif) {
+void CheckSceauxFocal(bool keep_exif, const Engine::Options& options = Engine::Options()) {
   const std::string dir = testing::DataPath("sceaux_castle/images");
   std::vector<Frame> frames = ListImageFolder(dir);
   REQUIRE(frames.size() == 11);
@@ -156,7 +171,7 @@ void CheckSceauxFocal(bool keep_exif) {
     REQUIRE(decoded.ok());
     REQUIRE_FALSE(decoded.exif_focal_length_px);
   }
-  const Run run = RunEngine(frames, "");
+  const Run run = RunEngine(frames, "", options);
   REQUIRE(run.reconstruction.cameras().size() == 1);
   CHECK(run.reconstruction.NumRegisteredImages() == 11);
   const double focal = run.reconstruction.cameras().begin()->second.MeanFocalLength();
@@ -173,6 +188,14 @@ TEST_CASE("Sceaux castle without K, EXIF focal: all registered, focal within 5 %
 
 TEST_CASE("Sceaux castle without K or EXIF: all registered, focal within 5 %") {
   CheckSceauxFocal(false);
+}
+
+// A guess 2.6 times too short (1 133 px, a wide angle where a normal lens was
+// used), corrected by the pairs' F as above.
+TEST_CASE("Sceaux castle without K or EXIF, guessed 2.6x too short: all registered, focal within 5 %") {
+  Engine::Options options;
+  options.unknown_focal_factor = 0.4;
+  CheckSceauxFocal(false, options);
 }
 
 TEST_CASE("Middlebury templeRing_subset19 with its K: all registered, centres within 3 mm") {
