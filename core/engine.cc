@@ -295,6 +295,7 @@ bool Engine::Initialize(ImageResult* result) {
       double focal_length = 0;
       if (initializer_.CorrectFocalLength(reconstruction_, camera_id, &focal_length) == 1) {
         reconstruction_.camera(camera_id).SetFocalLength(focal_length);
+        result->focal_length_from_pairs = focal_length;
         corrected = true;
       }
     }

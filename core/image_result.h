@@ -90,6 +90,9 @@ struct ImageResult {
   int ba_iterations = 0;
   // A global BA ran as well (guessed intrinsics converging).
   bool global_ba = false;
+  // The focal length (pixels) that the initial pairs' F put in place of a
+  // guess far off, with this image (step 6, before any pose).
+  std::optional<double> focal_length_from_pairs;
   // The model after this image.
   int model_images = 0;
   int model_points = 0;

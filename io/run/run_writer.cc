@@ -47,6 +47,9 @@ nlohmann::json ToJson(const ImageResult& result) {
       {"model_points", result.model_points}};
   if (result.image_id != kInvalidImageId) json["image_id"] = result.image_id;
   if (!result.reason.empty()) json["reason"] = result.reason;
+  if (result.focal_length_from_pairs) {
+    json["focal_length_from_pairs"] = *result.focal_length_from_pairs;
+  }
   if (result.cam_from_world) {
     const Rigid3d& pose = *result.cam_from_world;
     json["cam_from_world"] = {

@@ -99,6 +99,14 @@ std::map<std::string, double> AnalyzeWithColmap(const fs::path& model_dir) {
   return figures;
 }
 
+TEST_CASE("A log line names the focal length the initial pairs corrected, only when they did") {
+  ImageResult result;
+  result.name = "IMG_0002.JPG";
+  CHECK_FALSE(ToJson(result).contains("focal_length_from_pairs"));
+  result.focal_length_from_pairs = 2736.5;
+  CHECK(ToJson(result)["focal_length_from_pairs"].get<double>() == 2736.5);
+}
+
 TEST_CASE("The run's sparse/ model reads back, text and binary, as the engine's model") {
   const WrittenRun& run = Written();
   REQUIRE(run.model.NumRegisteredImages() >= 6);
