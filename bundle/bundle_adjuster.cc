@@ -247,10 +247,28 @@ double MeanReprojectionError(const BundleProblem& problem,
   return sum / residuals.size();
 }
 
+// Sum n^2 / sum n, n a point's observations from refined poses: the mean
+// track length an observation belongs to, which sets the Schur complement's
+// cost per observation.
+double WeightedMeanTrackLength(const BundleProblem& problem,
+                               const std::vector<AddedResidual>& residuals) {
+  std::vector<int> track_length(problem.points.size(), 0);
+  double sum = 0;
+  for (const AddedResidual& residual : residuals) {
+    if (!residual.pose_free) continue;
+    ++track_length[problem.observations[residual.observation].point];
+    ++sum;
+  }
+  double sum_squares = 0;
+  for (const int n : track_length) sum_squares += double(n) * n;
+  return sum > 0 ? sum_squares / sum : 0;
+}
+
 }  // namespace
 
 bool BundleAdjuster::Options::Check() const {
-  return loss_scale_px > 0 && dense_schur_max_images >= 0 &&
+  return loss_scale_px > 0 && iterative_schur_min_track_length > 0 &&
+         dense_schur_max_images >= 0 &&
          sparse_schur_max_images >= dense_schur_max_images &&
          max_num_iterations > 0 && max_solver_time_seconds > 0 &&
          function_tolerance >= 0 && gradient_tolerance >= 0 &&
@@ -451,7 +469,10 @@ BundleAdjuster::Summary BundleAdjuster::Solve(BundleProblem* problem) const {
             : ceres::SPARSE_NORMAL_CHOLESKY;
   } else {
     solver_options.linear_solver_ordering = ordering;
-    if (num_free_images <= options_.dense_schur_max_images) {
+    if (WeightedMeanTrackLength(*problem, residuals) > options_.iterative_schur_min_track_length) {
+      solver_options.linear_solver_type = ceres::ITERATIVE_SCHUR;
+      solver_options.preconditioner_type = ceres::SCHUR_JACOBI;
+    } else if (num_free_images <= options_.dense_schur_max_images) {
       solver_options.linear_solver_type = ceres::DENSE_SCHUR;
     } else if (num_free_images <= options_.sparse_schur_max_images) {
       solver_options.linear_solver_type = ceres::SPARSE_SCHUR;

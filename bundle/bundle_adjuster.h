@@ -49,10 +49,16 @@ class BundleAdjuster {
     };
     Gauge gauge = Gauge::kMinimal;
 
-    // Linear solver by the number of refined poses: dense Schur up to
+    // Linear solver (docs/bundle.md, "Solver by size"). Iterative Schur
+    // (Schur-Jacobi) when the points' tracks are long: beyond this
+    // observation-weighted mean track length (sum n^2 / sum n over the
+    // refined poses' observations of each point), since forming the Schur
+    // complement costs n^2 per point and a conjugate-gradient step n.
+    // Otherwise by the number of refined poses: dense Schur up to
     // `dense_schur_max_images`, SuiteSparse sparse Schur up to
-    // `sparse_schur_max_images`, iterative Schur (Schur-Jacobi) beyond.
-    int dense_schur_max_images = 50;
+    // `sparse_schur_max_images`, iterative Schur beyond.
+    double iterative_schur_min_track_length = 50;
+    int dense_schur_max_images = 300;
     int sparse_schur_max_images = 1000;
 
     int max_num_iterations = 50;

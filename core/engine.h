@@ -103,7 +103,7 @@ class Engine {
     // Unknown intrinsics: SIMPLE_RADIAL with the focal length from the
     // image's EXIF, else this many times the image's longer side (1.2: a
     // 45 deg field of view, typical of the normal lenses photogrammetry
-    // uses); refined in every BA either way.
+    // uses); refined in the global BAs either way.
     double unknown_focal_factor = 1.2;
     // While guessed intrinsics are being refined, a global BA runs each time
     // the model has grown by this factor since the last one, as COLMAP's
@@ -165,8 +165,8 @@ class Engine {
   };
 
   // `camera`: known intrinsics shared by all images (held fixed unless
-  // options.local_ba refines them); without it each image size gets a camera
-  // with a guessed focal length, refined in BA. `retrieval_model`: a trained
+  // options.local_ba or global_ba refine them); without it each image size
+  // gets a camera with a guessed focal length, refined in the global BAs. `retrieval_model`: a trained
   // model file's content; without it retrieval bootstraps from the session.
   // Throws std::invalid_argument naming a bad option or camera.
   explicit Engine(const Options& options, std::optional<Camera> camera = std::nullopt,
