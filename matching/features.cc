@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numeric>
 #include <stdexcept>
 
 #include <opencv2/features2d.hpp>
@@ -36,30 +37,38 @@ namespace {
 // viewpoint does not repeat. Coarse blobs repeat across views (COLMAP keeps
 // the largest scales only); fine strong features are the precise ones.
 // Ties are broken by position, so the selection does not depend on the
-// detector's order.
-void SelectKeypoints(int max_num_features, double large_scale_share,
-                     std::vector<cv::KeyPoint>* keypoints) {
-  if (int(keypoints->size()) <= max_num_features) return;
-  const auto by_position = [](const cv::KeyPoint& a, const cv::KeyPoint& b) {
-    if (a.pt.y != b.pt.y) return a.pt.y < b.pt.y;
-    return a.pt.x < b.pt.x;
+// detector's order. Returns the kept keypoints' indices: all in the
+// detector's order, or the selection largest first.
+std::vector<int> SelectKeypoints(int max_num_features, double large_scale_share,
+                                 const std::vector<cv::KeyPoint>& keypoints) {
+  std::vector<int> kept(keypoints.size());
+  std::iota(kept.begin(), kept.end(), 0);
+  const auto by_position = [&](int a, int b) {
+    if (keypoints[a].pt.y != keypoints[b].pt.y) return keypoints[a].pt.y < keypoints[b].pt.y;
+    return keypoints[a].pt.x < keypoints[b].pt.x;
   };
-  const auto larger = [&](const cv::KeyPoint& a, const cv::KeyPoint& b) {
-    if (a.size != b.size) return a.size > b.size;
-    if (a.response != b.response) return a.response > b.response;
+  const auto larger = [&](int a, int b) {
+    if (keypoints[a].size != keypoints[b].size) return keypoints[a].size > keypoints[b].size;
+    if (keypoints[a].response != keypoints[b].response) {
+      return keypoints[a].response > keypoints[b].response;
+    }
     return by_position(a, b);
   };
-  const auto stronger = [&](const cv::KeyPoint& a, const cv::KeyPoint& b) {
-    if (a.response != b.response) return a.response > b.response;
-    if (a.size != b.size) return a.size > b.size;
+  const auto stronger = [&](int a, int b) {
+    if (keypoints[a].response != keypoints[b].response) {
+      return keypoints[a].response > keypoints[b].response;
+    }
+    if (keypoints[a].size != keypoints[b].size) return keypoints[a].size > keypoints[b].size;
     return by_position(a, b);
   };
-  const auto begin = keypoints->begin();
+  if (int(kept.size()) <= max_num_features) return kept;
+  const auto begin = kept.begin();
   const int num_large = int(std::lround(large_scale_share * max_num_features));
-  std::nth_element(begin, begin + num_large, keypoints->end(), larger);
-  std::nth_element(begin + num_large, begin + max_num_features, keypoints->end(), stronger);
-  keypoints->resize(max_num_features);
-  std::sort(keypoints->begin(), keypoints->end(), larger);
+  std::nth_element(begin, begin + num_large, kept.end(), larger);
+  std::nth_element(begin + num_large, begin + max_num_features, kept.end(), stronger);
+  kept.resize(max_num_features);
+  std::sort(kept.begin(), kept.end(), larger);
+  return kept;
 }
 
 }  // namespace
@@ -107,24 +116,25 @@ FeatureSet ExtractFeatures(const cv::Mat& colour, cv::Mat grey, const SiftOption
   cv::Ptr<cv::SIFT> sift = cv::SIFT::create(0, options.num_octave_layers,
                                              options.peak_threshold, options.edge_threshold);
   std::vector<cv::KeyPoint> cv_keypoints;
-  sift->detect(grey, cv_keypoints);
-  SelectKeypoints(options.max_num_features, options.large_scale_share, &cv_keypoints);
   cv::Mat cv_descriptors;
-  // Describing only the kept keypoints also spares the doubled-resolution
-  // octave when none of them lies in it.
-  sift->compute(grey, cv_keypoints, cv_descriptors);
+  // Describing every keypoint found costs less than building the pyramid a
+  // second time to describe the kept ones only (fr1_xyz frame: 52 ms instead
+  // of 67; fountain-P11 photo at 1 600 px: 239 instead of 323).
+  sift->detectAndCompute(grey, cv::noArray(), cv_keypoints, cv_descriptors);
   FLYSFM_CHECK(cv_descriptors.empty() ||
                (cv_descriptors.rows == int(cv_keypoints.size()) &&
                 cv_descriptors.cols == 128 && cv_descriptors.type() == CV_32F));
+  const std::vector<int> kept =
+      SelectKeypoints(options.max_num_features, options.large_scale_share, cv_keypoints);
 
   FeatureSet features;
   features.width = width;
   features.height = height;
-  const int n = static_cast<int>(cv_keypoints.size());
+  const int n = static_cast<int>(kept.size());
   features.keypoints.resize(n);
   features.descriptors.resize(n, 128);
   for (int i = 0; i < n; ++i) {
-    const cv::KeyPoint& kp = cv_keypoints[i];
+    const cv::KeyPoint& kp = cv_keypoints[kept[i]];
     Keypoint& out = features.keypoints[i];
     // Pixel centres map as (x + 0.5) * s - 0.5 between resolutions.
     out.x = float((kp.pt.x + 0.5) * scale_x - 0.5);
@@ -142,7 +152,7 @@ FeatureSet ExtractFeatures(const cv::Mat& colour, cv::Mat grey, const SiftOption
     } else {
       out.r = out.g = out.b = colour.at<std::uint8_t>(py, px);
     }
-    std::copy_n(cv_descriptors.ptr<float>(i), 128, features.descriptors.row(i).data());
+    std::copy_n(cv_descriptors.ptr<float>(kept[i]), 128, features.descriptors.row(i).data());
   }
   RootSiftInPlace(&features.descriptors);
   return features;
