@@ -9,6 +9,12 @@
 //
 //   bench_photos [--photos N] [--megapixels 6|24] [--calibrated] [--seed S]
 //                [--supersampling K] [--work DIR] [--window-budget MB] [--profile]
+//                [--data DIR] [--no-real]
+//
+// After the synthetic session, the same per-photo figures on the real 6 MP
+// sets of --data (default $FLYSFM_DATA or the configured folder):
+// fountain-P11 and sceaux_castle, each with its K given and without
+// (--no-real skips them).
 //
 // Each view is rendered by io/synthetic's renderer, written as a JPEG
 // (quality 92, no EXIF, so the uncalibrated engine must guess the focal
@@ -36,8 +42,10 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <iostream>
 #include <map>
+#include <optional>
 #include <random>
 #include <sstream>
 #include <string>
@@ -57,6 +65,7 @@
 #include "io/synthetic/synthetic_scene.h"
 #include "lsm/lsm.h"
 #include "matching/matcher.h"
+#include "tests/testing/datasets.h"
 
 namespace flysfm {
 namespace {
@@ -506,6 +515,142 @@ StageTimes SumOfTimes(const std::vector<ImageResult>& results) {
   return sum;
 }
 
+// One engine run as `flysfm batch` makes it: the next photo prepared on the
+// second core. `on_photo` sees each call's results, all its stages' times
+// and the engine's own time.
+struct SessionRun {
+  std::vector<double> call_ms, engine_ms;
+  std::vector<StageTimes> call_times;
+  std::vector<int> verified_pairs, candidates;
+  Reconstruction model;
+  std::size_t pending = 0;
+  double finish_s = 0;
+  double wall_s = 0;
+  double peak_mb = 0;     // VmHWM after Finish (reset before, where Linux lets us)
+  double maxrss_mb = 0;   // the whole process's
+  bool peak_reset = false;
+};
+
+using PhotoCallback = std::function<void(const Engine&, const std::vector<ImageResult>&,
+                                         const StageTimes&, double engine_ms)>;
+
+SessionRun RunSession(const std::vector<Frame>& frames, const Engine::Options& options,
+                      const std::optional<Camera>& known_camera, const PhotoCallback& on_photo) {
+  SessionRun run;
+  run.peak_reset = ResetPeakRss();
+  const auto start = Clock::now();
+  Engine engine(options, known_camera);
+  FrameListSource source(frames);
+  PreparedFrameSource prepared(&source, options);
+  while (std::optional<PreparedFrame> frame = prepared.Next()) {
+    const auto call = Clock::now();
+    const std::vector<ImageResult> out = engine.AddImage(std::move(*frame));
+    run.engine_ms.push_back(MsSince(call));
+    const StageTimes times = SumOfTimes(out);
+    run.call_times.push_back(times);
+    run.call_ms.push_back(times.total);
+    run.verified_pairs.push_back(out.front().num_verified_pairs);
+    run.candidates.push_back(out.front().num_candidates);
+    if (on_photo) on_photo(engine, out, times, run.engine_ms.back());
+  }
+  const auto finish = Clock::now();
+  engine.Finish();
+  run.finish_s = MsSince(finish) / 1000;
+  run.wall_s = MsSince(start) / 1000;
+  run.peak_mb = ProcStatusMb("VmHWM");
+  rusage usage;
+  getrusage(RUSAGE_SELF, &usage);
+  run.maxrss_mb = usage.ru_maxrss / 1024.0;
+  run.pending = engine.PendingImageNames().size();
+  run.model = engine.reconstruction();
+  return run;
+}
+
+nlohmann::json Stats(const std::vector<double>& v) {
+  return nlohmann::json{{"median", Median(v)},
+                        {"p95", Percentile(v, 0.95)},
+                        {"max", v.empty() ? 0 : *std::max_element(v.begin(), v.end())}};
+}
+
+// A real photo set of ../shared/data, with or without its K: the same
+// per-photo figures (too few photos for a growth), the centres against
+// ground truth where there is one, the focal length against K.
+nlohmann::json RunRealSet(const std::string& name, const std::vector<Frame>& frames,
+                          const std::string& camera, double true_focal,
+                          const std::map<std::string, Eigen::Vector3d>& true_centres) {
+  std::optional<Camera> known_camera;
+  if (!camera.empty()) known_camera = Camera::FromString(camera, 0, 0);
+  const SessionRun run = RunSession(frames, Engine::Options(), known_camera, nullptr);
+  double final_focal = 0;
+  for (const auto& [camera_id, c] : run.model.cameras()) final_focal = c.MeanFocalLength();
+  const std::optional<PositionErrors> errors =
+      true_centres.empty() ? std::nullopt : CompareCentersByName(run.model, true_centres);
+  nlohmann::json stages;
+  for (const auto& [stage_name, stage] : StageTimes::Stages()) {
+    std::vector<double> v;
+    for (const StageTimes& times : run.call_times) v.push_back(times.*stage);
+    stages[stage_name] = Median(v);
+  }
+  const nlohmann::json all = Stats(run.call_ms);
+  const nlohmann::json engine = Stats(run.engine_ms);
+  std::printf("%-30s registered %zu/%zu; all stages median %.0f ms, p95 %.0f ms; engine median "
+              "%.0f ms; peak RSS %.0f MB; ",
+              name.c_str(), run.model.NumRegisteredImages(), frames.size(),
+              all["median"].get<double>(), all["p95"].get<double>(),
+              engine["median"].get<double>(), run.peak_mb);
+  if (errors) std::printf("centres RMSE %.2f mm; ", errors->rmse * 1000);
+  std::printf("focal %.1f px (K %.1f, %+.2f %%)\n", final_focal, true_focal,
+              100 * (final_focal / true_focal - 1));
+  std::printf("  stage medians (ms):");
+  for (const auto& [stage_name, stage] : StageTimes::Stages()) {
+    std::printf(" %s %.0f", stage_name, stages[stage_name].get<double>());
+  }
+  std::printf("\n");
+  std::fflush(stdout);
+  return nlohmann::json{{"name", name},
+                        {"calibrated", !camera.empty()},
+                        {"photos", frames.size()},
+                        {"registered", run.model.NumRegisteredImages()},
+                        {"all_stages_ms", all},
+                        {"engine_ms", engine},
+                        {"stage_median_ms", stages},
+                        {"peak_rss_mb", run.peak_mb},
+                        {"center_rmse_m", errors ? errors->rmse : -1.0},
+                        {"final_focal_px", final_focal},
+                        {"true_focal_px", true_focal}};
+}
+
+// fountain-P11 (Strecha's cameras) and sceaux_castle (its K.txt, no poses),
+// each with its K given and without (sceaux keeps its EXIF focal length).
+nlohmann::json RunRealSets(const std::filesystem::path& data) {
+  namespace fs = std::filesystem;
+  std::printf("\nreal photo sets in %s, fed as `flysfm batch` does:\n", data.c_str());
+  nlohmann::json sets = nlohmann::json::array();
+  const fs::path fountain = data / "strecha/fountain-P11";
+  const std::vector<Frame> fountain_frames = ListImageFolder(fountain / "images");
+  std::map<std::string, Eigen::Vector3d> fountain_centres;
+  for (const Frame& frame : fountain_frames) {
+    fountain_centres[frame.name] =
+        testing::ReadStrechaCamera(
+            (fountain / "gt_dense_cameras" / (frame.name + ".camera")).string())
+            .centre;
+  }
+  // Strecha's K (fx 2759.48, fy 2764.16): their mean for the focal error.
+  constexpr double kFountainFocal = 2761.82;
+  sets.push_back(RunRealSet("fountain-P11, K given", fountain_frames,
+                            "PINHOLE 2759.48,2764.16,1520.69,1006.81", kFountainFocal,
+                            fountain_centres));
+  sets.push_back(RunRealSet("fountain-P11, without K", fountain_frames, "", kFountainFocal,
+                            fountain_centres));
+  const std::vector<Frame> sceaux_frames = ListImageFolder(data / "sceaux_castle/images");
+  constexpr double kSceauxFocal = 2905.88;
+  sets.push_back(RunRealSet("sceaux_castle, K given", sceaux_frames,
+                            "PINHOLE 2905.88,2905.88,1416,1064", kSceauxFocal, {}));
+  sets.push_back(RunRealSet("sceaux_castle, without K (EXIF)", sceaux_frames, "",
+                            kSceauxFocal, {}));
+  return sets;
+}
+
 }  // namespace
 }  // namespace flysfm
 
@@ -519,6 +664,9 @@ int main(int argc, char** argv) {
   int supersampling = 1;
   std::string work;
   int window_budget_mb = LsmImageStore::Options().window_budget_megabytes;
+  std::string data =
+      std::getenv("FLYSFM_DATA") ? std::getenv("FLYSFM_DATA") : FLYSFM_DEFAULT_DATA_DIR;
+  bool real_sets = true;
   for (int i = 1; i < argc; ++i) {
     const bool has_value = i + 1 < argc;
     if (!std::strcmp(argv[i], "--photos") && has_value) {
@@ -537,6 +685,10 @@ int main(int argc, char** argv) {
       calibrated = true;
     } else if (!std::strcmp(argv[i], "--profile")) {
       profile = true;
+    } else if (!std::strcmp(argv[i], "--data") && has_value) {
+      data = argv[++i];
+    } else if (!std::strcmp(argv[i], "--no-real")) {
+      real_sets = false;
     } else {
       num_photos = -1;
       break;
@@ -546,7 +698,7 @@ int main(int argc, char** argv) {
       window_budget_mb < 0) {
     std::cerr << "usage: bench_photos [--photos N>=10] [--megapixels 6|24] [--calibrated] "
                  "[--seed S] [--supersampling K] [--work DIR] [--window-budget MB] "
-                 "[--profile]\n";
+                 "[--profile] [--data DIR] [--no-real]\n";
     return 2;
   }
 
@@ -626,66 +778,51 @@ int main(int argc, char** argv) {
   std::optional<Camera> known_camera;
   if (calibrated) known_camera = Camera::FromString(camera_text.str(), 0, 0);
   const double rss_before_mb = ProcStatusMb("VmRSS");
-  const bool peak_reset = ResetPeakRss();
-  const auto start = Clock::now();
-  std::vector<double> call_ms, engine_ms;
-  std::vector<StageTimes> call_times;
-  std::vector<int> verified_pairs, candidates;
   std::vector<std::pair<int, double>> rss_samples;
+  int index = 0;
+  const SessionRun run = RunSession(
+      frames, options, known_camera,
+      [&](const Engine& engine, const std::vector<ImageResult>& out, const StageTimes& times,
+          double engine_ms) {
+        ++index;
+        std::printf("[%4d] %-16s %-10s all stages %6.0f ms (decode %4.0f, features %4.0f, "
+                    "verification %5.0f, lsm %5.0f, ba %5.0f), engine %6.0f ms, %2d/%2d pairs, "
+                    "model %d img / %d pts%s%s\n",
+                    index, out.front().name.c_str(), ImageStatusName(out.front().status),
+                    times.total, times.decode, times.features, times.verification, times.lsm,
+                    times.ba, engine_ms, out.front().num_verified_pairs,
+                    out.front().num_candidates, out.back().model_images,
+                    out.back().model_points, out.front().reason.empty() ? "" : "  ",
+                    out.front().reason.c_str());
+        if (index % 50 == 0 || index == num_photos) {
+          rss_samples.emplace_back(index, ProcStatusMb("VmRSS"));
+          std::printf("       RSS after %d photos: %.0f MB (LSM store: windows %.0f MB, whole "
+                      "images %.0f MB)\n",
+                      index, rss_samples.back().second,
+                      engine.lsm_images().window_bytes() / 1048576.0,
+                      engine.lsm_images().whole_bytes() / 1048576.0);
+        }
+        std::fflush(stdout);
+      });
+  const std::vector<double>& call_ms = run.call_ms;
+  const std::vector<double>& engine_ms = run.engine_ms;
+  const std::vector<StageTimes>& call_times = run.call_times;
+  const std::vector<int>& verified_pairs = run.verified_pairs;
+  const std::vector<int>& candidates = run.candidates;
+  const double finish_s = run.finish_s;
+  const double wall_s = run.wall_s;
+  const double peak_mb = run.peak_mb;
+  const double maxrss_mb = run.maxrss_mb;
+  const bool peak_reset = run.peak_reset;
   {
-    Engine engine(options, known_camera);
-    FrameListSource source(frames);
-    PreparedFrameSource prepared(&source, options);
-    int index = 0;
-    while (std::optional<PreparedFrame> frame = prepared.Next()) {
-      const auto call = Clock::now();
-      const std::vector<ImageResult> out = engine.AddImage(std::move(*frame));
-      engine_ms.push_back(MsSince(call));
-      const StageTimes times = SumOfTimes(out);
-      call_times.push_back(times);
-      call_ms.push_back(times.total);
-      verified_pairs.push_back(out.front().num_verified_pairs);
-      candidates.push_back(out.front().num_candidates);
-      ++index;
-      std::printf("[%4d] %-16s %-10s all stages %6.0f ms (decode %4.0f, features %4.0f, "
-                  "verification %5.0f, lsm %5.0f, ba %5.0f), engine %6.0f ms, %2d/%2d pairs, "
-                  "model %d img / %d pts%s%s\n",
-                  index, out.front().name.c_str(), ImageStatusName(out.front().status),
-                  times.total, times.decode, times.features, times.verification, times.lsm,
-                  times.ba, engine_ms.back(), out.front().num_verified_pairs,
-                  out.front().num_candidates, out.back().model_images, out.back().model_points,
-                  out.front().reason.empty() ? "" : "  ", out.front().reason.c_str());
-      if (index % 50 == 0 || index == num_photos) {
-        rss_samples.emplace_back(index, ProcStatusMb("VmRSS"));
-        std::printf("       RSS after %d photos: %.0f MB (LSM store: windows %.0f MB, whole "
-                    "images %.0f MB)\n",
-                    index, rss_samples.back().second,
-                    engine.lsm_images().window_bytes() / 1048576.0,
-                    engine.lsm_images().whole_bytes() / 1048576.0);
-      }
-      std::fflush(stdout);
-    }
-    const auto finish = Clock::now();
-    engine.Finish();
-    const double finish_s = MsSince(finish) / 1000;
-    const double wall_s = MsSince(start) / 1000;
-    const double peak_mb = ProcStatusMb("VmHWM");
-    rusage usage;
-    getrusage(RUSAGE_SELF, &usage);
-    const double maxrss_mb = usage.ru_maxrss / 1024.0;
-
     // Accuracy.
-    const Reconstruction& model = engine.reconstruction();
+    const Reconstruction& model = run.model;
     const std::optional<PositionErrors> errors = CompareCentersByName(model, true_centers);
     double final_focal = 0;
     for (const auto& [camera_id, c] : model.cameras()) final_focal = c.MeanFocalLength();
     const double focal_error = final_focal / focal - 1;
 
     // Figures.
-    const auto stats = [](const std::vector<double>& v) {
-      return nlohmann::json{{"median", Median(v)}, {"p95", Percentile(v, 0.95)},
-                            {"max", v.empty() ? 0 : *std::max_element(v.begin(), v.end())}};
-    };
     const auto window = [&](std::size_t begin, std::size_t end) {
       end = std::min(end, call_times.size());
       begin = std::min(begin, end);
@@ -705,7 +842,7 @@ int main(int argc, char** argv) {
                             {"stage_median_ms", stages}};
     };
     const std::size_t n = call_ms.size();
-    const nlohmann::json early = window(25, 75);
+    const nlohmann::json early = window(50, 100);
     const nlohmann::json late = window(n >= 50 ? n - 50 : 0, n);
     const double growth = early["median_all_stages_ms"].get<double>() > 0
                               ? late["median_all_stages_ms"].get<double>() /
@@ -718,12 +855,12 @@ int main(int argc, char** argv) {
     nlohmann::json rss = nlohmann::json::object();
     for (const auto& [index, mb] : rss_samples) rss[std::to_string(index)] = mb;
 
-    const nlohmann::json all_stats = stats(call_ms);
-    const nlohmann::json engine_stats = stats(engine_ms);
+    const nlohmann::json all_stats = Stats(call_ms);
+    const nlohmann::json engine_stats = Stats(engine_ms);
     std::printf("\n%s, %d photos of %dx%d: registered %zu, %zu pending, %zu points; "
                 "%.1f s in all (%.2f s per photo), Finish (pending + global BA) %.1f s\n",
                 calibrated ? "calibrated" : "uncalibrated", num_photos, width, height,
-                model.NumRegisteredImages(), engine.PendingImageNames().size(),
+                model.NumRegisteredImages(), run.pending,
                 model.NumPoints3D(), wall_s, wall_s / num_photos, finish_s);
     std::printf("per-photo time, all stages (decode + features + engine): median %.0f ms, p95 "
                 "%.0f ms, max %.0f ms\n",
@@ -733,9 +870,9 @@ int main(int argc, char** argv) {
                 "core): median %.0f ms, p95 %.0f ms, max %.0f ms\n",
                 engine_stats["median"].get<double>(), engine_stats["p95"].get<double>(),
                 engine_stats["max"].get<double>());
-    std::printf("growth, median of the last 50 / photos 25-75: all stages %.2f, engine %.2f\n",
+    std::printf("growth, median of the last 50 / photos 50-100: all stages %.2f, engine %.2f\n",
                 growth, engine_growth);
-    std::printf("  %-14s %12s %12s\n", "stage (ms)", "photos 25-75", "last 50");
+    std::printf("  %-14s %12s %12s\n", "stage (ms)", "photos 50-100", "last 50");
     for (const auto& [name, stage] : StageTimes::Stages()) {
       std::printf("  %-14s %12.1f %12.1f\n", name, early["stage_median_ms"][name].get<double>(),
                   late["stage_median_ms"][name].get<double>());
@@ -785,7 +922,7 @@ int main(int argc, char** argv) {
         {"calibrated", calibrated},
         {"seed", seed},
         {"registered", model.NumRegisteredImages()},
-        {"pending", engine.PendingImageNames().size()},
+        {"pending", run.pending},
         {"points", model.NumPoints3D()},
         {"mean_reprojection_error_px", model.MeanReprojectionError()},
         {"render_median_ms", Median(render_ms)},
@@ -793,8 +930,8 @@ int main(int argc, char** argv) {
         {"finish_s", finish_s},
         {"all_stages_ms", all_stats},
         {"engine_ms", engine_stats},
-        {"growth_all_stages_last50_over_25_75", growth},
-        {"growth_engine_last50_over_25_75", engine_growth},
+        {"growth_all_stages_last50_over_50_100", growth},
+        {"growth_engine_last50_over_50_100", engine_growth},
         {"early", early},
         {"late", late},
         {"rss_before_mb", rss_before_mb},
@@ -810,6 +947,7 @@ int main(int argc, char** argv) {
         {"photos_matching_every_candidate", tried_all},
         {"match_and_verify_ms_per_candidate", verification_per_candidate}};
     if (profile) json["profile"] = Profile(frames, camera, options);
+    if (real_sets) json["real_sets"] = RunRealSets(data);
     std::cout << json.dump() << "\n";
   }
   if (!keep) fs::remove_all(dir);
