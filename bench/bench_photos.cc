@@ -526,6 +526,8 @@ struct SessionRun {
   std::size_t pending = 0;
   double finish_s = 0;
   double wall_s = 0;
+  // The last focal length the initial pairs' F put in place of the guess.
+  std::optional<double> focal_length_from_pairs;
   double peak_mb = 0;     // VmHWM after Finish (reset before, where Linux lets us)
   double maxrss_mb = 0;   // the whole process's
   bool peak_reset = false;
@@ -551,6 +553,11 @@ SessionRun RunSession(const std::vector<Frame>& frames, const Engine::Options& o
     run.call_ms.push_back(times.total);
     run.verified_pairs.push_back(out.front().num_verified_pairs);
     run.candidates.push_back(out.front().num_candidates);
+    for (const ImageResult& result : out) {
+      if (result.focal_length_from_pairs) {
+        run.focal_length_from_pairs = result.focal_length_from_pairs;
+      }
+    }
     if (on_photo) on_photo(engine, out, times, run.engine_ms.back());
   }
   const auto finish = Clock::now();
@@ -564,6 +571,15 @@ SessionRun RunSession(const std::vector<Frame>& frames, const Engine::Options& o
   run.pending = engine.PendingImageNames().size();
   run.model = engine.reconstruction();
   return run;
+}
+
+// ", the initial pairs' F gave N px" when they replaced the guess.
+std::string FromPairsText(const SessionRun& run) {
+  if (!run.focal_length_from_pairs) return "";
+  char text[64];
+  std::snprintf(text, sizeof(text), ", the initial pairs' F gave %.1f px",
+                *run.focal_length_from_pairs);
+  return text;
 }
 
 nlohmann::json Stats(const std::vector<double>& v) {
@@ -599,8 +615,8 @@ nlohmann::json RunRealSet(const std::string& name, const std::vector<Frame>& fra
               all["median"].get<double>(), all["p95"].get<double>(),
               engine["median"].get<double>(), run.peak_mb);
   if (errors) std::printf("centres RMSE %.2f mm; ", errors->rmse * 1000);
-  std::printf("focal %.1f px (K %.1f, %+.2f %%)\n", final_focal, true_focal,
-              100 * (final_focal / true_focal - 1));
+  std::printf("focal %.1f px (K %.1f, %+.2f %%%s)\n", final_focal, true_focal,
+              100 * (final_focal / true_focal - 1), FromPairsText(run).c_str());
   std::printf("  stage medians (ms):");
   for (const auto& [stage_name, stage] : StageTimes::Stages()) {
     std::printf(" %s %.0f", stage_name, stages[stage_name].get<double>());
@@ -617,6 +633,7 @@ nlohmann::json RunRealSet(const std::string& name, const std::vector<Frame>& fra
                         {"peak_rss_mb", run.peak_mb},
                         {"center_rmse_m", errors ? errors->rmse : -1.0},
                         {"final_focal_px", final_focal},
+                        {"focal_length_from_pairs_px", run.focal_length_from_pairs.value_or(0)},
                         {"true_focal_px", true_focal}};
 }
 
@@ -910,8 +927,9 @@ int main(int argc, char** argv) {
     }
     if (!calibrated) {
       std::printf("focal length: final %.1f px, true %.1f px, relative error %+.4f (start %.0f "
-                  "px)\n",
-                  final_focal, focal, focal_error, options.unknown_focal_factor * width);
+                  "px%s)\n",
+                  final_focal, focal, focal_error, options.unknown_focal_factor * width,
+                  FromPairsText(run).c_str());
     }
 
     nlohmann::json json = {
@@ -944,6 +962,7 @@ int main(int argc, char** argv) {
         {"true_focal_px", focal},
         {"final_focal_px", final_focal},
         {"focal_relative_error", calibrated ? 0.0 : focal_error},
+        {"focal_length_from_pairs_px", run.focal_length_from_pairs.value_or(0)},
         {"photos_matching_every_candidate", tried_all},
         {"match_and_verify_ms_per_candidate", verification_per_candidate}};
     if (profile) json["profile"] = Profile(frames, camera, options);

@@ -12,8 +12,7 @@ namespace flysfm {
 
 bool Initializer::Options::Check() const {
   return min_num_inliers >= 5 && min_tri_angle_deg >= 0 && min_num_points >= 2 &&
-         min_point_angle_deg >= 0 && max_error_px > 0 && min_focal_length_factor > 0 &&
-         max_focal_length_factor > min_focal_length_factor && focal_from_fundamental.Check();
+         min_point_angle_deg >= 0 && max_error_px > 0 && focal_from_fundamental.Check();
 }
 
 Initializer::Initializer(const Options& options) : options_(options) {
@@ -42,13 +41,10 @@ int Initializer::CorrectFocalLength(const Reconstruction& reconstruction, camera
     fundamentals.push_back(candidate.F);
   }
   const Camera& camera = reconstruction.camera(camera_id);
-  const double longer_side = std::max(camera.width, camera.height);
-  FocalFromFundamentalOptions options = options_.focal_from_fundamental;
-  options.min_focal_length = options_.min_focal_length_factor * longer_side;
-  options.max_focal_length = options_.max_focal_length_factor * longer_side;
   const Eigen::Matrix3d K = CalibrationMatrix(camera);
   return FocalFromFundamentals(fundamentals, K.topRightCorner<2, 1>(),
-                               camera.MeanFocalLength(), options, focal_length);
+                               std::max(camera.width, camera.height), camera.MeanFocalLength(),
+                               options_.focal_from_fundamental, focal_length);
 }
 
 void Initializer::RecomputePoses(const Reconstruction& reconstruction,

@@ -45,11 +45,7 @@ class Initializer {
     double min_point_angle_deg = 1.5;
     double max_error_px = 4.0;
     // Without a calibration: the focal length the remembered pairs' F agree
-    // on, searched between these multiples of the image's longer side (a
-    // 14 mm lens on a full-frame body is 0.4, a 600 mm one 17), replaces the
-    // guess when they clearly prefer it (`focal_from_fundamental`).
-    double min_focal_length_factor = 0.25;
-    double max_focal_length_factor = 25;
+    // on replaces the guess when they clearly prefer it.
     FocalFromFundamentalOptions focal_from_fundamental;
 
     bool Check() const;

@@ -21,7 +21,8 @@ double MeanGap(const std::vector<Eigen::Matrix3d>& centred, double focal_length)
 }  // namespace
 
 bool FocalFromFundamentalOptions::Check() const {
-  return min_focal_length > 0 && max_focal_length > min_focal_length && num_samples >= 3 &&
+  return min_focal_length_factor > 0 && max_focal_length_factor > min_focal_length_factor &&
+         num_samples >= 3 &&
          min_contrast >= 1 && min_gap_rise >= 0;
 }
 
@@ -40,11 +41,11 @@ double EssentialSingularValueGap(const Eigen::Matrix3d& F,
 }
 
 int FocalFromFundamentals(const std::vector<Eigen::Matrix3d>& fundamentals,
-                          const Eigen::Vector2d& principal_point,
+                          const Eigen::Vector2d& principal_point, double longer_side,
                           double reference_focal_length,
                           const FocalFromFundamentalOptions& options, double* focal_length) {
   if (fundamentals.empty() || !options.Check() || !principal_point.allFinite() ||
-      !(reference_focal_length > 0)) {
+      !(longer_side > 0) || !std::isfinite(longer_side) || !(reference_focal_length > 0)) {
     return 0;
   }
   // Each F moved to the principal point and scaled to unit norm, so that no
@@ -57,9 +58,10 @@ int FocalFromFundamentals(const std::vector<Eigen::Matrix3d>& fundamentals,
     if (!moved.allFinite() || moved.norm() <= 0) return 0;
     centred.push_back(moved / moved.norm());
   }
-  const double log_min = std::log(options.min_focal_length);
+  const double log_min = std::log(options.min_focal_length_factor * longer_side);
   const double step =
-      (std::log(options.max_focal_length) - log_min) / double(options.num_samples - 1);
+      std::log(options.max_focal_length_factor / options.min_focal_length_factor) /
+      double(options.num_samples - 1);
   const auto focal_at = [&](double k) { return std::exp(log_min + k * step); };
   int best = 0;
   double best_gap = MeanGap(centred, focal_at(0));

@@ -21,9 +21,10 @@ double EssentialSingularValueGap(const Eigen::Matrix3d& F,
                                  double focal_length);
 
 struct FocalFromFundamentalOptions {
-  // Range searched (pixels), sampled geometrically.
-  double min_focal_length = 100;
-  double max_focal_length = 100000;
+  // Range searched, in multiples of the image's longer side (a 14 mm lens on
+  // a full-frame body is 0.4, a 600 mm one 17), sampled geometrically.
+  double min_focal_length_factor = 0.25;
+  double max_focal_length_factor = 25;
   int num_samples = 240;
   // The minimum replaces the reference focal length only when the mean gap
   // there is at least `min_contrast` times the minimum's, and more than
@@ -36,12 +37,13 @@ struct FocalFromFundamentalOptions {
 };
 
 // The focal length minimising the mean gap over `fundamentals` (all sharing
-// the camera and `principal_point`), when the data clearly prefer it to
+// the camera, `principal_point` and `longer_side`, the image's longer side in
+// pixels), when the data clearly prefer it to
 // `reference_focal_length` (a guess to be replaced). Returns 1 and sets
 // *focal_length then, else 0 (no F, a minimum on the range's boundary or not
 // clearly below the reference's gap, non-finite input).
 int FocalFromFundamentals(const std::vector<Eigen::Matrix3d>& fundamentals,
-                          const Eigen::Vector2d& principal_point,
+                          const Eigen::Vector2d& principal_point, double longer_side,
                           double reference_focal_length,
                           const FocalFromFundamentalOptions& options, double* focal_length);
 

@@ -17,8 +17,11 @@ namespace {
 
 // A 24 MP photo's camera, its principal point off the centre as real
 // lenses have it.
+// The longer side of the test photos.
+constexpr int kWidth = 6000;
+
 Camera PhotoCamera(double focal_length) {
-  Camera camera = Camera::FromFocal(CameraModelId::kPinhole, focal_length, 6000, 4000);
+  Camera camera = Camera::FromFocal(CameraModelId::kPinhole, focal_length, kWidth, 4000);
   camera.params[2] += 40;
   camera.params[3] -= 25;
   return camera;
@@ -90,7 +93,8 @@ TEST_CASE("Exact F of one pair gives its focal length, from 0.4 to 4 times the i
     for (int trial = 0; trial < 10; ++trial) {
       const Eigen::Matrix3d F = ExactFundamental(camera, RandomStep(rng));
       double estimate = 0;
-      if (FocalFromFundamentals({F}, PrincipalPoint(camera), 2 * focal, options, &estimate) == 0) {
+      if (FocalFromFundamentals({F}, PrincipalPoint(camera), kWidth, 2 * focal, options,
+                                &estimate) == 0) {
         continue;
       }
       ++estimated;
@@ -115,7 +119,7 @@ TEST_CASE("Three noisy pairs: the focal length within 5 %, or no estimate") {
       fundamentals.push_back(NoisyFundamental(camera, RandomStep(rng), 0.5, 200, rng));
     }
     double estimate = 0;
-    if (FocalFromFundamentals(fundamentals, PrincipalPoint(camera), 1.44 * focal, options,
+    if (FocalFromFundamentals(fundamentals, PrincipalPoint(camera), kWidth, 1.44 * focal, options,
                               &estimate) == 0) {
       continue;
     }
@@ -147,7 +151,8 @@ TEST_CASE("Optical axes that meet: no estimate, exact or with noise") {
   for (int trial = 0; trial < 20; ++trial) {
     const Eigen::Matrix3d F = ExactFundamental(camera, FixatingStep(5 + trial, 6, rng));
     double estimate = 0;
-    CHECK(FocalFromFundamentals({F}, PrincipalPoint(camera), 10000, options, &estimate) == 0);
+    CHECK(FocalFromFundamentals({F}, PrincipalPoint(camera), kWidth, 10000, options,
+                                &estimate) == 0);
   }
   int estimated = 0;
   for (int trial = 0; trial < 100; ++trial) {
@@ -158,29 +163,32 @@ TEST_CASE("Optical axes that meet: no estimate, exact or with noise") {
     }
     double estimate = 0;
     estimated +=
-        FocalFromFundamentals(fundamentals, PrincipalPoint(camera), 10000, options, &estimate);
+        FocalFromFundamentals(fundamentals, PrincipalPoint(camera), kWidth, 10000, options,
+                              &estimate);
   }
   // A false estimate needs the noise to carve a minimum three times deeper
   // than its sides at 25 % off.
   CHECK(estimated <= 5);
 }
 
-TEST_CASE("No F, a non-finite F, or bad options: no estimate") {
+TEST_CASE("No F, a non-finite F, no image size or bad options: no estimate") {
   double estimate = -1;
   FocalFromFundamentalOptions options;
-  CHECK(FocalFromFundamentals({}, Eigen::Vector2d::Zero(), 1000, options, &estimate) == 0);
+  CHECK(FocalFromFundamentals({}, Eigen::Vector2d::Zero(), kWidth, 1000, options, &estimate) == 0);
   Eigen::Matrix3d bad = Eigen::Matrix3d::Identity();
   bad(0, 1) = std::numeric_limits<double>::quiet_NaN();
-  CHECK(FocalFromFundamentals({bad}, Eigen::Vector2d::Zero(), 1000, options, &estimate) == 0);
-  CHECK(FocalFromFundamentals({Eigen::Matrix3d::Zero()}, Eigen::Vector2d::Zero(), 1000,
+  CHECK(FocalFromFundamentals({bad}, Eigen::Vector2d::Zero(), kWidth, 1000, options,
+                              &estimate) == 0);
+  CHECK(FocalFromFundamentals({Eigen::Matrix3d::Zero()}, Eigen::Vector2d::Zero(), kWidth, 1000,
                               options, &estimate) == 0);
   std::mt19937 rng(5);
   const Camera camera = PhotoCamera(5000);
   const Eigen::Matrix3d F = ExactFundamental(camera, RandomStep(rng));
-  CHECK(FocalFromFundamentals({F}, PrincipalPoint(camera), 0, options, &estimate) == 0);
-  options.max_focal_length = options.min_focal_length;
+  CHECK(FocalFromFundamentals({F}, PrincipalPoint(camera), kWidth, 0, options, &estimate) == 0);
+  CHECK(FocalFromFundamentals({F}, PrincipalPoint(camera), 0, 10000, options, &estimate) == 0);
+  options.max_focal_length_factor = options.min_focal_length_factor;
   CHECK_FALSE(options.Check());
-  CHECK(FocalFromFundamentals({F}, PrincipalPoint(camera), 10000, options, &estimate) == 0);
+  CHECK(FocalFromFundamentals({F}, PrincipalPoint(camera), kWidth, 10000, options, &estimate) == 0);
   CHECK(estimate == -1);
 }
 
