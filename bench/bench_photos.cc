@@ -588,35 +588,41 @@ nlohmann::json Stats(const std::vector<double>& v) {
                         {"max", v.empty() ? 0 : *std::max_element(v.begin(), v.end())}};
 }
 
+// Each stage's median over calls [begin, end).
+nlohmann::json StageMedians(const std::vector<StageTimes>& call_times, std::size_t begin,
+                            std::size_t end) {
+  nlohmann::json stages;
+  for (const auto& [name, stage] : StageTimes::Stages()) {
+    std::vector<double> v;
+    for (std::size_t i = begin; i < end; ++i) v.push_back(call_times[i].*stage);
+    stages[name] = Median(v);
+  }
+  return stages;
+}
+
 // A real photo set of ../shared/data, with or without its K: the same
 // per-photo figures (too few photos for a growth), the centres against
 // ground truth where there is one, the focal length against K.
-nlohmann::json RunRealSet(const std::string& name, const std::vector<Frame>& frames,
-                          const std::string& camera, double true_focal,
-                          const std::map<std::string, Eigen::Vector3d>& true_centres) {
+nlohmann::json RunRealSet(const testing::PhotoSet& set, bool k_given) {
+  const std::string name = set.name + (k_given ? ", K given" : ", without K");
   std::optional<Camera> known_camera;
-  if (!camera.empty()) known_camera = Camera::FromString(camera, 0, 0);
-  const SessionRun run = RunSession(frames, Engine::Options(), known_camera, nullptr);
+  if (k_given) known_camera = Camera::FromString(set.camera, 0, 0);
+  const SessionRun run = RunSession(set.frames, Engine::Options(), known_camera, nullptr);
   double final_focal = 0;
   for (const auto& [camera_id, c] : run.model.cameras()) final_focal = c.MeanFocalLength();
   const std::optional<PositionErrors> errors =
-      true_centres.empty() ? std::nullopt : CompareCentersByName(run.model, true_centres);
-  nlohmann::json stages;
-  for (const auto& [stage_name, stage] : StageTimes::Stages()) {
-    std::vector<double> v;
-    for (const StageTimes& times : run.call_times) v.push_back(times.*stage);
-    stages[stage_name] = Median(v);
-  }
+      set.centres.empty() ? std::nullopt : CompareCentersByName(run.model, set.centres);
+  const nlohmann::json stages = StageMedians(run.call_times, 0, run.call_times.size());
   const nlohmann::json all = Stats(run.call_ms);
   const nlohmann::json engine = Stats(run.engine_ms);
   std::printf("%-30s registered %zu/%zu; all stages median %.0f ms, p95 %.0f ms; engine median "
               "%.0f ms; peak RSS %.0f MB; ",
-              name.c_str(), run.model.NumRegisteredImages(), frames.size(),
+              name.c_str(), run.model.NumRegisteredImages(), set.frames.size(),
               all["median"].get<double>(), all["p95"].get<double>(),
               engine["median"].get<double>(), run.peak_mb);
   if (errors) std::printf("centres RMSE %.2f mm; ", errors->rmse * 1000);
-  std::printf("focal %.1f px (K %.1f, %+.2f %%%s)\n", final_focal, true_focal,
-              100 * (final_focal / true_focal - 1), FromPairsText(run).c_str());
+  std::printf("focal %.1f px (K %.1f, %+.2f %%%s)\n", final_focal, set.focal_length,
+              100 * (final_focal / set.focal_length - 1), FromPairsText(run).c_str());
   std::printf("  stage medians (ms):");
   for (const auto& [stage_name, stage] : StageTimes::Stages()) {
     std::printf(" %s %.0f", stage_name, stages[stage_name].get<double>());
@@ -624,8 +630,8 @@ nlohmann::json RunRealSet(const std::string& name, const std::vector<Frame>& fra
   std::printf("\n");
   std::fflush(stdout);
   return nlohmann::json{{"name", name},
-                        {"calibrated", !camera.empty()},
-                        {"photos", frames.size()},
+                        {"calibrated", k_given},
+                        {"photos", set.frames.size()},
                         {"registered", run.model.NumRegisteredImages()},
                         {"all_stages_ms", all},
                         {"engine_ms", engine},
@@ -634,37 +640,17 @@ nlohmann::json RunRealSet(const std::string& name, const std::vector<Frame>& fra
                         {"center_rmse_m", errors ? errors->rmse : -1.0},
                         {"final_focal_px", final_focal},
                         {"focal_length_from_pairs_px", run.focal_length_from_pairs.value_or(0)},
-                        {"true_focal_px", true_focal}};
+                        {"true_focal_px", set.focal_length}};
 }
 
 // fountain-P11 (Strecha's cameras) and sceaux_castle (its K.txt, no poses),
 // each with its K given and without (sceaux keeps its EXIF focal length).
 nlohmann::json RunRealSets(const std::filesystem::path& data) {
-  namespace fs = std::filesystem;
   std::printf("\nreal photo sets in %s, fed as `flysfm batch` does:\n", data.c_str());
   nlohmann::json sets = nlohmann::json::array();
-  const fs::path fountain = data / "strecha/fountain-P11";
-  const std::vector<Frame> fountain_frames = ListImageFolder(fountain / "images");
-  std::map<std::string, Eigen::Vector3d> fountain_centres;
-  for (const Frame& frame : fountain_frames) {
-    fountain_centres[frame.name] =
-        testing::ReadStrechaCamera(
-            (fountain / "gt_dense_cameras" / (frame.name + ".camera")).string())
-            .centre;
+  for (const testing::PhotoSet& set : {testing::FountainP11(data), testing::SceauxCastle(data)}) {
+    for (const bool k_given : {true, false}) sets.push_back(RunRealSet(set, k_given));
   }
-  // Strecha's K (fx 2759.48, fy 2764.16): their mean for the focal error.
-  constexpr double kFountainFocal = 2761.82;
-  sets.push_back(RunRealSet("fountain-P11, K given", fountain_frames,
-                            "PINHOLE 2759.48,2764.16,1520.69,1006.81", kFountainFocal,
-                            fountain_centres));
-  sets.push_back(RunRealSet("fountain-P11, without K", fountain_frames, "", kFountainFocal,
-                            fountain_centres));
-  const std::vector<Frame> sceaux_frames = ListImageFolder(data / "sceaux_castle/images");
-  constexpr double kSceauxFocal = 2905.88;
-  sets.push_back(RunRealSet("sceaux_castle, K given", sceaux_frames,
-                            "PINHOLE 2905.88,2905.88,1416,1064", kSceauxFocal, {}));
-  sets.push_back(RunRealSet("sceaux_castle, without K (EXIF)", sceaux_frames, "",
-                            kSceauxFocal, {}));
   return sets;
 }
 
@@ -821,154 +807,135 @@ int main(int argc, char** argv) {
         }
         std::fflush(stdout);
       });
-  const std::vector<double>& call_ms = run.call_ms;
-  const std::vector<double>& engine_ms = run.engine_ms;
-  const std::vector<StageTimes>& call_times = run.call_times;
-  const std::vector<int>& verified_pairs = run.verified_pairs;
-  const std::vector<int>& candidates = run.candidates;
-  const double finish_s = run.finish_s;
-  const double wall_s = run.wall_s;
-  const double peak_mb = run.peak_mb;
-  const double maxrss_mb = run.maxrss_mb;
-  const bool peak_reset = run.peak_reset;
-  {
-    // Accuracy.
-    const Reconstruction& model = run.model;
-    const std::optional<PositionErrors> errors = CompareCentersByName(model, true_centers);
-    double final_focal = 0;
-    for (const auto& [camera_id, c] : model.cameras()) final_focal = c.MeanFocalLength();
-    const double focal_error = final_focal / focal - 1;
+  // Accuracy.
+  const std::optional<PositionErrors> errors = CompareCentersByName(run.model, true_centers);
+  double final_focal = 0;
+  for (const auto& [camera_id, c] : run.model.cameras()) final_focal = c.MeanFocalLength();
+  const double focal_error = final_focal / focal - 1;
 
-    // Figures.
-    const auto window = [&](std::size_t begin, std::size_t end) {
-      end = std::min(end, call_times.size());
-      begin = std::min(begin, end);
-      nlohmann::json stages;
-      for (const auto& [name, stage] : StageTimes::Stages()) {
-        std::vector<double> v;
-        for (std::size_t i = begin; i < end; ++i) v.push_back(call_times[i].*stage);
-        stages[name] = Median(v);
-      }
-      std::vector<double> total(call_ms.begin() + begin, call_ms.begin() + end);
-      std::vector<double> engine(engine_ms.begin() + begin, engine_ms.begin() + end);
-      std::vector<double> pairs(verified_pairs.begin() + begin, verified_pairs.begin() + end);
-      return nlohmann::json{{"photos", {begin, end}},
-                            {"median_all_stages_ms", Median(total)},
-                            {"median_engine_ms", Median(engine)},
-                            {"median_verified_pairs", Median(pairs)},
-                            {"stage_median_ms", stages}};
-    };
-    const std::size_t n = call_ms.size();
-    const nlohmann::json early = window(50, 100);
-    const nlohmann::json late = window(n >= 50 ? n - 50 : 0, n);
-    const double growth = early["median_all_stages_ms"].get<double>() > 0
-                              ? late["median_all_stages_ms"].get<double>() /
-                                    early["median_all_stages_ms"].get<double>()
-                              : 0;
-    const double engine_growth = early["median_engine_ms"].get<double>() > 0
-                                     ? late["median_engine_ms"].get<double>() /
-                                           early["median_engine_ms"].get<double>()
-                                     : 0;
-    nlohmann::json rss = nlohmann::json::object();
-    for (const auto& [index, mb] : rss_samples) rss[std::to_string(index)] = mb;
+  // Figures.
+  const auto window = [&](std::size_t begin, std::size_t end) {
+    end = std::min(end, run.call_times.size());
+    begin = std::min(begin, end);
+    std::vector<double> total(run.call_ms.begin() + begin, run.call_ms.begin() + end);
+    std::vector<double> engine(run.engine_ms.begin() + begin, run.engine_ms.begin() + end);
+    std::vector<double> pairs(run.verified_pairs.begin() + begin, run.verified_pairs.begin() + end);
+    return nlohmann::json{{"photos", {begin, end}},
+                          {"median_all_stages_ms", Median(total)},
+                          {"median_engine_ms", Median(engine)},
+                          {"median_verified_pairs", Median(pairs)},
+                          {"stage_median_ms", StageMedians(run.call_times, begin, end)}};
+  };
+  const std::size_t n = run.call_ms.size();
+  const nlohmann::json early = window(50, 100);
+  const nlohmann::json late = window(n >= 50 ? n - 50 : 0, n);
+  const double growth = early["median_all_stages_ms"].get<double>() > 0
+                            ? late["median_all_stages_ms"].get<double>() /
+                                  early["median_all_stages_ms"].get<double>()
+                            : 0;
+  const double engine_growth = early["median_engine_ms"].get<double>() > 0
+                                   ? late["median_engine_ms"].get<double>() /
+                                         early["median_engine_ms"].get<double>()
+                                   : 0;
+  nlohmann::json rss = nlohmann::json::object();
+  for (const auto& [index, mb] : rss_samples) rss[std::to_string(index)] = mb;
 
-    const nlohmann::json all_stats = Stats(call_ms);
-    const nlohmann::json engine_stats = Stats(engine_ms);
-    std::printf("\n%s, %d photos of %dx%d: registered %zu, %zu pending, %zu points; "
-                "%.1f s in all (%.2f s per photo), Finish (pending + global BA) %.1f s\n",
-                calibrated ? "calibrated" : "uncalibrated", num_photos, width, height,
-                model.NumRegisteredImages(), run.pending,
-                model.NumPoints3D(), wall_s, wall_s / num_photos, finish_s);
-    std::printf("per-photo time, all stages (decode + features + engine): median %.0f ms, p95 "
-                "%.0f ms, max %.0f ms\n",
-                all_stats["median"].get<double>(), all_stats["p95"].get<double>(),
-                all_stats["max"].get<double>());
-    std::printf("per-photo engine time (AddImage; decode + features ran ahead on the 2nd "
-                "core): median %.0f ms, p95 %.0f ms, max %.0f ms\n",
-                engine_stats["median"].get<double>(), engine_stats["p95"].get<double>(),
-                engine_stats["max"].get<double>());
-    std::printf("growth, median of the last 50 / photos 50-100: all stages %.2f, engine %.2f\n",
-                growth, engine_growth);
-    std::printf("  %-14s %12s %12s\n", "stage (ms)", "photos 50-100", "last 50");
-    for (const auto& [name, stage] : StageTimes::Stages()) {
-      std::printf("  %-14s %12.1f %12.1f\n", name, early["stage_median_ms"][name].get<double>(),
-                  late["stage_median_ms"][name].get<double>());
-    }
-    std::printf("  %-14s %12.1f %12.1f\n", "verified pairs",
-                early["median_verified_pairs"].get<double>(),
-                late["median_verified_pairs"].get<double>());
-    // The engine verifies candidates in retrieval order until
-    // max_verified_pairs verify: an image with fewer tried all of them.
-    int tried_all = 0;
-    double verification_per_candidate = 0;
-    for (std::size_t i = 0; i < n; ++i) {
-      if (verified_pairs[i] < options.max_verified_pairs && candidates[i] > 0) {
-        ++tried_all;
-        verification_per_candidate +=
-            (call_times[i].matching + call_times[i].verification) / candidates[i];
-      }
-    }
-    if (tried_all > 0) verification_per_candidate /= tried_all;
-    std::printf("pairs: %d of %zu photos verified fewer than %d pairs and so matched every "
-                "candidate; for them matching + verification took %.1f ms per candidate\n",
-                tried_all, n, options.max_verified_pairs, verification_per_candidate);
-    std::printf("memory: RSS %.0f MB before the engine; during the run:", rss_before_mb);
-    for (const auto& [index, mb] : rss_samples) std::printf(" %d: %.0f MB,", index, mb);
-    std::printf(" peak (VmHWM%s) %.0f MB; ru_maxrss (whole process, rendering included) %.0f "
-                "MB\n",
-                peak_reset ? ", reset before the engine" : "", peak_mb, maxrss_mb);
-    if (errors) {
-      std::printf("accuracy: %d centres compared, RMSE after Sim3 %.3f m = %.4f of the mean "
-                  "distance to the building (%.1f m); median %.3f m, max %.3f m\n",
-                  errors->num_compared, errors->rmse, errors->rmse / mean_distance,
-                  mean_distance, errors->median, errors->max);
-    } else {
-      std::printf("accuracy: too few registered images to align\n");
-    }
-    if (!calibrated) {
-      std::printf("focal length: final %.1f px, true %.1f px, relative error %+.4f (start %.0f "
-                  "px%s)\n",
-                  final_focal, focal, focal_error, options.unknown_focal_factor * width,
-                  FromPairsText(run).c_str());
-    }
-
-    nlohmann::json json = {
-        {"bench", "photos"},
-        {"photos", num_photos},
-        {"width", width},
-        {"height", height},
-        {"calibrated", calibrated},
-        {"seed", seed},
-        {"registered", model.NumRegisteredImages()},
-        {"pending", run.pending},
-        {"points", model.NumPoints3D()},
-        {"mean_reprojection_error_px", model.MeanReprojectionError()},
-        {"render_median_ms", Median(render_ms)},
-        {"wall_s", wall_s},
-        {"finish_s", finish_s},
-        {"all_stages_ms", all_stats},
-        {"engine_ms", engine_stats},
-        {"growth_all_stages_last50_over_50_100", growth},
-        {"growth_engine_last50_over_50_100", engine_growth},
-        {"early", early},
-        {"late", late},
-        {"rss_before_mb", rss_before_mb},
-        {"rss_mb", rss},
-        {"peak_rss_mb", peak_mb},
-        {"ru_maxrss_mb", maxrss_mb},
-        {"mean_distance_m", mean_distance},
-        {"center_rmse_m", errors ? errors->rmse : -1.0},
-        {"center_rmse_relative", errors ? errors->rmse / mean_distance : -1.0},
-        {"true_focal_px", focal},
-        {"final_focal_px", final_focal},
-        {"focal_relative_error", calibrated ? 0.0 : focal_error},
-        {"focal_length_from_pairs_px", run.focal_length_from_pairs.value_or(0)},
-        {"photos_matching_every_candidate", tried_all},
-        {"match_and_verify_ms_per_candidate", verification_per_candidate}};
-    if (profile) json["profile"] = Profile(frames, camera, options);
-    if (real_sets) json["real_sets"] = RunRealSets(data);
-    std::cout << json.dump() << "\n";
+  const nlohmann::json all_stats = Stats(run.call_ms);
+  const nlohmann::json engine_stats = Stats(run.engine_ms);
+  std::printf("\n%s, %d photos of %dx%d: registered %zu, %zu pending, %zu points; "
+              "%.1f s in all (%.2f s per photo), Finish (pending + global BA) %.1f s\n",
+              calibrated ? "calibrated" : "uncalibrated", num_photos, width, height,
+              run.model.NumRegisteredImages(), run.pending,
+              run.model.NumPoints3D(), run.wall_s, run.wall_s / num_photos, run.finish_s);
+  std::printf("per-photo time, all stages (decode + features + engine): median %.0f ms, p95 "
+              "%.0f ms, max %.0f ms\n",
+              all_stats["median"].get<double>(), all_stats["p95"].get<double>(),
+              all_stats["max"].get<double>());
+  std::printf("per-photo engine time (AddImage; decode + features ran ahead on the 2nd "
+              "core): median %.0f ms, p95 %.0f ms, max %.0f ms\n",
+              engine_stats["median"].get<double>(), engine_stats["p95"].get<double>(),
+              engine_stats["max"].get<double>());
+  std::printf("growth, median of the last 50 / photos 50-100: all stages %.2f, engine %.2f\n",
+              growth, engine_growth);
+  std::printf("  %-14s %12s %12s\n", "stage (ms)", "photos 50-100", "last 50");
+  for (const auto& [name, stage] : StageTimes::Stages()) {
+    std::printf("  %-14s %12.1f %12.1f\n", name, early["stage_median_ms"][name].get<double>(),
+                late["stage_median_ms"][name].get<double>());
   }
+  std::printf("  %-14s %12.1f %12.1f\n", "verified pairs",
+              early["median_verified_pairs"].get<double>(),
+              late["median_verified_pairs"].get<double>());
+  // The engine verifies candidates in retrieval order until
+  // max_verified_pairs verify: an image with fewer tried all of them.
+  int tried_all = 0;
+  double verification_per_candidate = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (run.verified_pairs[i] < options.max_verified_pairs && run.candidates[i] > 0) {
+      ++tried_all;
+      verification_per_candidate +=
+          (run.call_times[i].matching + run.call_times[i].verification) / run.candidates[i];
+    }
+  }
+  if (tried_all > 0) verification_per_candidate /= tried_all;
+  std::printf("pairs: %d of %zu photos verified fewer than %d pairs and so matched every "
+              "candidate; for them matching + verification took %.1f ms per candidate\n",
+              tried_all, n, options.max_verified_pairs, verification_per_candidate);
+  std::printf("memory: RSS %.0f MB before the engine; during the run:", rss_before_mb);
+  for (const auto& [index, mb] : rss_samples) std::printf(" %d: %.0f MB,", index, mb);
+  std::printf(" peak (VmHWM%s) %.0f MB; ru_maxrss (whole process, rendering included) %.0f "
+              "MB\n",
+              run.peak_reset ? ", reset before the engine" : "", run.peak_mb, run.maxrss_mb);
+  if (errors) {
+    std::printf("accuracy: %d centres compared, RMSE after Sim3 %.3f m = %.4f of the mean "
+                "distance to the building (%.1f m); median %.3f m, max %.3f m\n",
+                errors->num_compared, errors->rmse, errors->rmse / mean_distance,
+                mean_distance, errors->median, errors->max);
+  } else {
+    std::printf("accuracy: too few registered images to align\n");
+  }
+  if (!calibrated) {
+    std::printf("focal length: final %.1f px, true %.1f px, relative error %+.4f (start %.0f "
+                "px%s)\n",
+                final_focal, focal, focal_error, options.unknown_focal_factor * width,
+                FromPairsText(run).c_str());
+  }
+
+  nlohmann::json json = {
+      {"bench", "photos"},
+      {"photos", num_photos},
+      {"width", width},
+      {"height", height},
+      {"calibrated", calibrated},
+      {"seed", seed},
+      {"registered", run.model.NumRegisteredImages()},
+      {"pending", run.pending},
+      {"points", run.model.NumPoints3D()},
+      {"mean_reprojection_error_px", run.model.MeanReprojectionError()},
+      {"render_median_ms", Median(render_ms)},
+      {"wall_s", run.wall_s},
+      {"finish_s", run.finish_s},
+      {"all_stages_ms", all_stats},
+      {"engine_ms", engine_stats},
+      {"growth_all_stages_last50_over_50_100", growth},
+      {"growth_engine_last50_over_50_100", engine_growth},
+      {"early", early},
+      {"late", late},
+      {"rss_before_mb", rss_before_mb},
+      {"rss_mb", rss},
+      {"peak_rss_mb", run.peak_mb},
+      {"ru_maxrss_mb", run.maxrss_mb},
+      {"mean_distance_m", mean_distance},
+      {"center_rmse_m", errors ? errors->rmse : -1.0},
+      {"center_rmse_relative", errors ? errors->rmse / mean_distance : -1.0},
+      {"true_focal_px", focal},
+      {"final_focal_px", final_focal},
+      {"focal_relative_error", calibrated ? 0.0 : focal_error},
+      {"focal_length_from_pairs_px", run.focal_length_from_pairs.value_or(0)},
+      {"photos_matching_every_candidate", tried_all},
+      {"match_and_verify_ms_per_candidate", verification_per_candidate}};
+  if (profile) json["profile"] = Profile(frames, camera, options);
+  if (real_sets) json["real_sets"] = RunRealSets(data);
+  std::cout << json.dump() << "\n";
   if (!keep) fs::remove_all(dir);
   return 0;
 }

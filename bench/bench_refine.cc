@@ -189,32 +189,14 @@ std::vector<std::string> Split(const std::string& text) {
   return parts;
 }
 
-DataSet Fountain(const fs::path& data, double interval_s) {
+// One of the shared photo sets, COLMAP reading the folder its images are in.
+DataSet Photos(testing::PhotoSet photos, double interval_s) {
   DataSet set;
-  set.name = "fountain-P11";
-  set.image_dir = data / "strecha/fountain-P11/images";
-  set.frames = ListImageFolder(set.image_dir);
-  set.camera = "PINHOLE 2759.48,2764.16,1520.69,1006.81";
-  for (const Frame& frame : set.frames) {
-    set.centres[frame.name] =
-        testing::ReadStrechaCamera(
-            (data / "strecha/fountain-P11/gt_dense_cameras" / (frame.name + ".camera")).string())
-            .centre;
-  }
-  set.intervals_s = {interval_s};
-  return set;
-}
-
-DataSet Temple(const fs::path& data, double interval_s) {
-  DataSet set;
-  set.name = "templeRing_subset19";
-  set.image_dir = data / "middlebury/templeRing_subset19";
-  set.frames = ListImageFolder(set.image_dir);
-  set.camera = "PINHOLE 1520.4,1525.9,302.32,246.87";
-  for (const auto& camera :
-       testing::ReadMiddleburyCameras((set.image_dir / "templeR_par.txt").string())) {
-    set.centres[camera.name] = camera.Centre();
-  }
+  set.name = std::move(photos.name);
+  set.image_dir = photos.frames.front().path.parent_path();
+  set.frames = std::move(photos.frames);
+  set.camera = std::move(photos.camera);
+  set.centres = std::move(photos.centres);
   set.intervals_s = {interval_s};
   return set;
 }
@@ -303,9 +285,9 @@ int main(int argc, char** argv) {
     DataSet set;
     try {
       if (key == "fountain") {
-        set = Fountain(data, interval_s);
+        set = Photos(testing::FountainP11(data), interval_s);
       } else if (key == "temple") {
-        set = Temple(data, interval_s);
+        set = Photos(testing::TempleRing19(data), interval_s);
       } else if (key == "fr3") {
         set = Tum(fs::path(data) / "tum/rgbd_dataset_freiburg3_long_office_household_superglue17",
                   "fr3 17 frames", "PINHOLE 535.4,539.2,320.1,247.6", {1.0}, 0, true);

@@ -166,8 +166,9 @@ class Engine {
 
   // `camera`: known intrinsics shared by all images (held fixed unless
   // options.local_ba or global_ba refine them); without it each image size
-  // gets a camera with a guessed focal length, refined in the global BAs. `retrieval_model`: a trained
-  // model file's content; without it retrieval bootstraps from the session.
+  // gets a camera with a guessed focal length, refined in the global BAs.
+  // `retrieval_model`: a trained model file's content; without it retrieval
+  // bootstraps from the session.
   // Throws std::invalid_argument naming a bad option or camera.
   explicit Engine(const Options& options, std::optional<Camera> camera = std::nullopt,
                   std::shared_ptr<const RetrievalModel> retrieval_model = nullptr);

@@ -44,21 +44,22 @@ std::vector<int> SelectKeypoints(int max_num_features, double large_scale_share,
   std::vector<int> kept(keypoints.size());
   std::iota(kept.begin(), kept.end(), 0);
   const auto by_position = [&](int a, int b) {
-    if (keypoints[a].pt.y != keypoints[b].pt.y) return keypoints[a].pt.y < keypoints[b].pt.y;
-    return keypoints[a].pt.x < keypoints[b].pt.x;
+    const cv::KeyPoint& ka = keypoints[a];
+    const cv::KeyPoint& kb = keypoints[b];
+    return ka.pt.y != kb.pt.y ? ka.pt.y < kb.pt.y : ka.pt.x < kb.pt.x;
   };
   const auto larger = [&](int a, int b) {
-    if (keypoints[a].size != keypoints[b].size) return keypoints[a].size > keypoints[b].size;
-    if (keypoints[a].response != keypoints[b].response) {
-      return keypoints[a].response > keypoints[b].response;
-    }
+    const cv::KeyPoint& ka = keypoints[a];
+    const cv::KeyPoint& kb = keypoints[b];
+    if (ka.size != kb.size) return ka.size > kb.size;
+    if (ka.response != kb.response) return ka.response > kb.response;
     return by_position(a, b);
   };
   const auto stronger = [&](int a, int b) {
-    if (keypoints[a].response != keypoints[b].response) {
-      return keypoints[a].response > keypoints[b].response;
-    }
-    if (keypoints[a].size != keypoints[b].size) return keypoints[a].size > keypoints[b].size;
+    const cv::KeyPoint& ka = keypoints[a];
+    const cv::KeyPoint& kb = keypoints[b];
+    if (ka.response != kb.response) return ka.response > kb.response;
+    if (ka.size != kb.size) return ka.size > kb.size;
     return by_position(a, b);
   };
   if (int(kept.size()) <= max_num_features) return kept;

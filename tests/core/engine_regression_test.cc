@@ -133,25 +133,19 @@ TEST_CASE("TUM freiburg1_xyz, 120 frames without K: >= 99 % registered, ATE <= 1
 
 // fountain-P11 with `camera` ("": unknown): all registered, centres within
 // 5 mm RMS of the Strecha cameras after Sim3. Returns the run.
-Run CheckFountain(const std::string& camera, const std::string& label,
-                  const Engine::Options& options = Engine::Options()) {
-  const std::string dir = testing::DataPath("strecha/fountain-P11");
-  const std::vector<Frame> frames = ListImageFolder(dir + "/images");
-  Run run = RunEngine(frames, camera, options);
-  CHECK(run.reconstruction.NumRegisteredImages() == frames.size());
-  std::map<std::string, Eigen::Vector3d> truth;
-  for (const Frame& frame : frames) {
-    truth[frame.name] =
-        testing::ReadStrechaCamera(dir + "/gt_dense_cameras/" + frame.name + ".camera").centre;
-  }
-  const PositionErrors errors = CompareCenters(run.reconstruction, truth);
-  Print(label, run, frames.size(), errors, "mm", 1000);
+Run CheckFountain(const testing::PhotoSet& fountain, const std::string& camera,
+                  const std::string& label, const Engine::Options& options = Engine::Options()) {
+  Run run = RunEngine(fountain.frames, camera, options);
+  CHECK(run.reconstruction.NumRegisteredImages() == fountain.frames.size());
+  const PositionErrors errors = CompareCenters(run.reconstruction, fountain.centres);
+  Print(label, run, fountain.frames.size(), errors, "mm", 1000);
   CHECK(errors.rmse <= 0.005);
   return run;
 }
 
 TEST_CASE("Strecha fountain-P11 with its K: all registered, centres within 5 mm RMS") {
-  CheckFountain("PINHOLE 2759.48,2764.16,1520.69,1006.81", "fountain-P11");
+  const testing::PhotoSet fountain = testing::FountainP11(testing::DataDir());
+  CheckFountain(fountain, fountain.camera, "fountain-P11");
 }
 
 // Self-calibration: no K, no EXIF (these files have none), so the engine
@@ -159,15 +153,16 @@ TEST_CASE("Strecha fountain-P11 with its K: all registered, centres within 5 mm 
 // floor is the calibrated one: a self-calibrated model of a building must be
 // as usable as a calibrated one.
 Run CheckFountainFocal(const std::string& label, const Engine::Options& options) {
-  Run run = CheckFountain("", label, options);
+  const testing::PhotoSet fountain = testing::FountainP11(testing::DataDir());
+  Run run = CheckFountain(fountain, "", label, options);
   REQUIRE(run.reconstruction.cameras().size() == 1);
   const double focal = run.reconstruction.cameras().begin()->second.MeanFocalLength();
-  std::cout << label << ": focal " << focal << " px (truth 2761.8)";
+  std::cout << label << ": focal " << focal << " px (truth " << fountain.focal_length << ")";
   if (run.focal_length_from_pairs) {
     std::cout << ", from the initial pairs' F " << *run.focal_length_from_pairs << " px";
   }
   std::cout << "\n";
-  CHECK(std::abs(focal / 2761.82 - 1) <= 0.01);
+  CHECK(std::abs(focal / fountain.focal_length - 1) <= 0.01);
   return run;
 }
 
@@ -183,7 +178,8 @@ TEST_CASE("Strecha fountain-P11 without K, guessed 2.8x too long: as from the us
   options.unknown_focal_factor = 2.5;
   const Run run = CheckFountainFocal("fountain-P11 without K, guess 2.8x", options);
   REQUIRE(run.focal_length_from_pairs);
-  CHECK(std::abs(*run.focal_length_from_pairs / 2761.82 - 1) <= 0.05);
+  const double focal = testing::FountainP11(testing::DataDir()).focal_length;
+  CHECK(std::abs(*run.focal_length_from_pairs / focal - 1) <= 0.05);
 }
 
 // Sceaux castle has no ground-truth poses, only its K (2 905.88 px): the
@@ -194,8 +190,8 @@ TEST_CASE("Strecha fountain-P11 without K, guessed 2.8x too long: as from the us
 // and LSM matches each feature on its scale's pyramid level (docs/engine.md,
 // "Photos").
 void CheckSceauxFocal(bool keep_exif, const Engine::Options& options = Engine::Options()) {
-  const std::string dir = testing::DataPath("sceaux_castle/images");
-  std::vector<Frame> frames = ListImageFolder(dir);
+  const testing::PhotoSet sceaux = testing::SceauxCastle(testing::DataDir());
+  std::vector<Frame> frames = sceaux.frames;
   REQUIRE(frames.size() == 11);
   if (!keep_exif) {
     for (Frame& frame : frames) frame.bytes = testing::WithoutExif(ReadFileBytes(frame.path));
@@ -209,13 +205,13 @@ void CheckSceauxFocal(bool keep_exif, const Engine::Options& options = Engine::O
   const double focal = run.reconstruction.cameras().begin()->second.MeanFocalLength();
   std::cout << "sceaux " << (keep_exif ? "with" : "without") << " EXIF: "
             << run.reconstruction.NumRegisteredImages() << "/11 registered, focal " << focal
-            << " px (K: 2905.88), mean reprojection error "
+            << " px (K: " << sceaux.focal_length << "), mean reprojection error "
             << run.reconstruction.MeanReprojectionError() << " px";
   if (run.focal_length_from_pairs) {
     std::cout << ", from the initial pairs' F " << *run.focal_length_from_pairs << " px";
   }
   std::cout << "\n";
-  CHECK(std::abs(focal / 2905.88 - 1) <= 0.05);
+  CHECK(std::abs(focal / sceaux.focal_length - 1) <= 0.05);
 }
 
 TEST_CASE("Sceaux castle without K, EXIF focal: all registered, focal within 5 %") {
@@ -236,16 +232,11 @@ TEST_CASE("Sceaux castle without K or EXIF, guessed 2.9x too long: all registere
 }
 
 TEST_CASE("Middlebury templeRing_subset19 with its K: all registered, centres within 3 mm") {
-  const std::string dir = testing::DataPath("middlebury/templeRing_subset19");
-  const std::vector<Frame> frames = ListImageFolder(dir);
-  const Run run = RunEngine(frames, "PINHOLE 1520.4,1525.9,302.32,246.87");
-  CHECK(run.reconstruction.NumRegisteredImages() == frames.size());
-  std::map<std::string, Eigen::Vector3d> truth;
-  for (const auto& camera : testing::ReadMiddleburyCameras(dir + "/templeR_par.txt")) {
-    truth[camera.name] = camera.Centre();
-  }
-  const PositionErrors errors = CompareCenters(run.reconstruction, truth);
-  Print("templeRing 19", run, frames.size(), errors, "mm", 1000);
+  const testing::PhotoSet temple = testing::TempleRing19(testing::DataDir());
+  const Run run = RunEngine(temple.frames, temple.camera);
+  CHECK(run.reconstruction.NumRegisteredImages() == temple.frames.size());
+  const PositionErrors errors = CompareCenters(run.reconstruction, temple.centres);
+  Print("templeRing 19", run, temple.frames.size(), errors, "mm", 1000);
   CHECK(errors.rmse <= 0.003);
 }
 

@@ -27,6 +27,22 @@ std::vector<std::string> DataLines(const std::string& path) {
   throw std::runtime_error("malformed line in '" + path + "': " + line);
 }
 
+// "PINHOLE fx,fy,cx,cy" with the digits the data files give.
+std::string PinholeOption(const Eigen::Matrix3d& K) {
+  std::ostringstream option;
+  option << "PINHOLE " << K(0, 0) << "," << K(1, 1) << "," << K(0, 2) << "," << K(1, 2);
+  return option.str();
+}
+
+PhotoSet WithCamera(std::string name, std::vector<Frame> frames, const Eigen::Matrix3d& K) {
+  PhotoSet set;
+  set.name = std::move(name);
+  set.frames = std::move(frames);
+  set.camera = PinholeOption(K);
+  set.focal_length = (K(0, 0) + K(1, 1)) / 2;
+  return set;
+}
+
 }  // namespace
 
 StrechaCamera ReadStrechaCamera(const std::string& path) {
@@ -58,6 +74,42 @@ std::vector<MiddleburyCamera> ReadMiddleburyCameras(const std::string& par_txt) 
     cameras.push_back(camera);
   }
   return cameras;
+}
+
+Eigen::Matrix3d ReadIntrinsicMatrix(const std::string& path) {
+  std::ifstream in = Open(path);
+  Eigen::Matrix3d K;
+  for (int r = 0; r < 3; ++r) in >> K(r, 0) >> K(r, 1) >> K(r, 2);
+  if (!in) throw std::runtime_error("malformed intrinsic matrix file '" + path + "'");
+  return K;
+}
+
+PhotoSet FountainP11(const std::filesystem::path& data) {
+  const std::filesystem::path dir = data / "strecha/fountain-P11";
+  PhotoSet set = WithCamera("fountain-P11", ListImageFolder(dir / "images"),
+                            ReadIntrinsicMatrix((dir / "images/K.txt").string()));
+  for (const Frame& frame : set.frames) {
+    set.centres[frame.name] =
+        ReadStrechaCamera((dir / "gt_dense_cameras" / (frame.name + ".camera")).string()).centre;
+  }
+  return set;
+}
+
+PhotoSet SceauxCastle(const std::filesystem::path& data) {
+  const std::filesystem::path dir = data / "sceaux_castle/images";
+  return WithCamera("sceaux_castle", ListImageFolder(dir),
+                    ReadIntrinsicMatrix((dir / "K.txt").string()));
+}
+
+PhotoSet TempleRing19(const std::filesystem::path& data) {
+  const std::filesystem::path dir = data / "middlebury/templeRing_subset19";
+  const std::vector<MiddleburyCamera> cameras =
+      ReadMiddleburyCameras((dir / "templeR_par.txt").string());
+  if (cameras.empty()) throw std::runtime_error("no cameras in templeR_par.txt");
+  PhotoSet set = WithCamera("templeRing_subset19", ListImageFolder(dir), cameras.front().K);
+  // The ring's file has all 47 views; the subset keeps 19.
+  for (const MiddleburyCamera& camera : cameras) set.centres[camera.name] = camera.Centre();
+  return set;
 }
 
 }  // namespace flysfm::testing

@@ -5,11 +5,15 @@
 // trajectories are io's (ListTumSequence, ReadTumTrajectory). A missing or
 // malformed file throws std::runtime_error naming it.
 
+#include <filesystem>
+#include <map>
 #include <string>
 #include <vector>
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+
+#include "io/sources/image_source.h"
 
 namespace flysfm::testing {
 
@@ -34,5 +38,24 @@ struct MiddleburyCamera {
   Eigen::Vector3d Centre() const { return -R.transpose() * t; }
 };
 std::vector<MiddleburyCamera> ReadMiddleburyCameras(const std::string& par_txt);
+
+// A 3x3 intrinsic matrix as the photo sets' images/K.txt hold it.
+Eigen::Matrix3d ReadIntrinsicMatrix(const std::string& path);
+
+// A real photo set of ../shared/data as the tests and benchmarks feed it:
+// its images, its shared camera as --camera takes it, that camera's mean
+// focal length, and the true camera centres by image name where the set has
+// poses (none for sceaux_castle).
+struct PhotoSet {
+  std::string name;
+  std::vector<Frame> frames;
+  std::string camera;
+  double focal_length = 0;
+  std::map<std::string, Eigen::Vector3d> centres;
+};
+// `data` is the shared data folder (testing::DataPath's root).
+PhotoSet FountainP11(const std::filesystem::path& data);
+PhotoSet SceauxCastle(const std::filesystem::path& data);
+PhotoSet TempleRing19(const std::filesystem::path& data);
 
 }  // namespace flysfm::testing
