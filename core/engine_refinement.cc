@@ -15,7 +15,7 @@ namespace flysfm {
 bool Engine::Options::Refinement::Check() const {
   return candidates_per_image >= 1 && max_shared_points >= 1 && pairs_per_slice >= 1 &&
          images_per_slice >= 1 &&
-         min_changed_observations >= 0 && max_adjustments >= 0 && max_adjusted_images >= 2;
+         min_changed_observations >= 0 && max_adjustments >= 0 && max_adjusted_observations >= 1;
 }
 
 Engine::RefinementSlice Engine::Refine(const std::function<bool()>& should_yield) {
@@ -147,14 +147,19 @@ void Engine::AdjustEverything(const std::function<bool()>& should_yield,
   options.should_stop = should_yield;
   slice->global_ba = true;
   const std::vector<image_t>& registered = reconstruction_.RegisteredImageIds();
-  const int max_images = options_.refinement.max_adjusted_images;
-  if (int(registered.size()) <= max_images || !self_calibrating_.empty()) {
+  // The images registered last, as many as hold the observation budget (two
+  // at least); all of them: a global BA.
+  const auto budget = std::size_t(options_.refinement.max_adjusted_observations);
+  std::size_t num_adjusted = 0;
+  for (std::size_t observations = 0; num_adjusted < registered.size(); ++num_adjusted) {
+    observations += reconstruction_.image(registered.rbegin()[num_adjusted]).num_points3D;
+    if (num_adjusted >= 2 && observations > budget) break;
+  }
+  if (num_adjusted == registered.size() || !self_calibrating_.empty()) {
     slice->ba = AdjustGlobalBundle(options, &reconstruction_).summary;
   } else {
     std::unordered_map<image_t, double> weights;
-    for (auto it = registered.end() - max_images; it != registered.end(); ++it) {
-      weights[*it] = 1.0;
-    }
+    for (std::size_t i = 0; i < num_adjusted; ++i) weights[registered.rbegin()[i]] = 1.0;
     // Intrinsics that converged (or were given) stay as they are in a block
     // held by the rest of the model.
     options.refine_focal_length = false;

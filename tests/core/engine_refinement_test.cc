@@ -204,18 +204,20 @@ TEST_CASE("A registration alone makes a global BA due, with no pair left to try"
                     [](const Engine::RefinementSlice& slice) { return slice.global_ba; }));
 }
 
-TEST_CASE("Beyond max_adjusted_images the BA refines the images registered last, the rest "
-          "held") {
+// A budget of one observation: the block is its minimum, the two images
+// registered last.
+TEST_CASE("Beyond max_adjusted_observations the BA refines the images registered last, the "
+          "rest held") {
   Engine::Options options = FewPairsOnArrival();
-  options.refinement.max_adjusted_images = 5;
+  options.refinement.max_adjusted_observations = 1;
   Engine engine(options, Capture().camera);
   AddAll(&engine);
   int num_adjustments = 0;
   for (const Engine::RefinementSlice& slice : RefineAll(&engine)) {
     if (!slice.global_ba) continue;
     ++num_adjustments;
-    CHECK(slice.ba.num_free_images == 5);
-    CHECK(slice.ba.num_images > 5);  // held images observing the block's points
+    CHECK(slice.ba.num_free_images == 2);
+    CHECK(slice.ba.num_images > 2);  // held images observing the block's points
     CHECK(slice.ba.IsSolutionUsable());
   }
   CHECK(num_adjustments >= 1);
@@ -270,7 +272,7 @@ TEST_CASE("Refinement options are checked") {
   options.refinement.min_changed_observations = -1;
   CHECK_FALSE(options.Check(&problem));
   options = Engine::Options();
-  options.refinement.max_adjusted_images = 1;
+  options.refinement.max_adjusted_observations = 0;
   CHECK_FALSE(options.Check(&problem));
 }
 
