@@ -152,8 +152,8 @@ TEST_CASE("Strecha fountain-P11 with its K: all registered, centres within 5 mm 
 // starts from its 1.2 x longer-side guess, 34 % above the true 2 759 px. The
 // floor is the calibrated one: a self-calibrated model of a building must be
 // as usable as a calibrated one.
-Run CheckFountainFocal(const std::string& label, const Engine::Options& options) {
-  const testing::PhotoSet fountain = testing::FountainP11(testing::DataDir());
+Run CheckFountainFocal(const testing::PhotoSet& fountain, const std::string& label,
+                       const Engine::Options& options) {
   Run run = CheckFountain(fountain, "", label, options);
   REQUIRE(run.reconstruction.cameras().size() == 1);
   const double focal = run.reconstruction.cameras().begin()->second.MeanFocalLength();
@@ -167,7 +167,8 @@ Run CheckFountainFocal(const std::string& label, const Engine::Options& options)
 }
 
 TEST_CASE("Strecha fountain-P11 without K: all registered, centres within 5 mm, focal within 1 %") {
-  CheckFountainFocal("fountain-P11 without K", Engine::Options());
+  CheckFountainFocal(testing::FountainP11(testing::DataDir()), "fountain-P11 without K",
+                     Engine::Options());
 }
 
 // A guess 2.8 times too long (7 680 px, a 200 mm lens where a 70 mm one was
@@ -176,10 +177,10 @@ TEST_CASE("Strecha fountain-P11 without K: all registered, centres within 5 mm, 
 TEST_CASE("Strecha fountain-P11 without K, guessed 2.8x too long: as from the usual guess") {
   Engine::Options options;
   options.unknown_focal_factor = 2.5;
-  const Run run = CheckFountainFocal("fountain-P11 without K, guess 2.8x", options);
+  const testing::PhotoSet fountain = testing::FountainP11(testing::DataDir());
+  const Run run = CheckFountainFocal(fountain, "fountain-P11 without K, guess 2.8x", options);
   REQUIRE(run.focal_length_from_pairs);
-  const double focal = testing::FountainP11(testing::DataDir()).focal_length;
-  CHECK(std::abs(*run.focal_length_from_pairs / focal - 1) <= 0.05);
+  CHECK(std::abs(*run.focal_length_from_pairs / fountain.focal_length - 1) <= 0.05);
 }
 
 // Sceaux castle has no ground-truth poses, only its K (2 905.88 px): the
