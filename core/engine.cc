@@ -55,6 +55,8 @@ bool Engine::Options::Check(std::string* problem) const {
       {self_calibration_growth == 0 || self_calibration_growth > 1,
        "self_calibration_growth (0 or > 1)"},
       {self_calibration_converged_change >= 0, "self_calibration_converged_change (>= 0)"},
+      {self_calibration_max_observations >= 1, "self_calibration_max_observations (>= 1)"},
+      {self_calibration_min_iterations >= 1, "self_calibration_min_iterations (>= 1)"},
       {refinement.Check(), "refinement"},
   };
   for (const auto& [ok, name] : checks) {
@@ -389,17 +391,29 @@ void Engine::AdjustWhileSelfCalibrating(ImageResult* result) {
       num_images + 1,
       std::size_t(std::ceil(double(num_images) * options_.self_calibration_growth)));
   const std::map<camera_t, Camera> before = reconstruction_.cameras();
-  AdjustGlobalBundle(options_.global_ba, &reconstruction_);
+  BundleAdjuster::Options options = options_.global_ba;
+  const double share = double(options_.self_calibration_max_observations) /
+                       double(std::max<std::size_t>(reconstruction_.NumObservations(), 1));
+  if (share < 1) {
+    options.max_num_iterations =
+        std::max(options_.self_calibration_min_iterations,
+                 int(std::floor(share * double(options.max_num_iterations))));
+  }
+  const BundleAdjuster::Summary summary = AdjustGlobalBundle(options, &reconstruction_).summary;
   reconstruction_.FilterAllPoints3D(options_.filter_max_error_px,
                                     options_.filter_min_tri_angle_deg);
   result->global_ba = true;
+  result->global_ba_iterations = summary.num_iterations;
+  // A BA stopped by its iteration limit may have moved the focal length
+  // little only because it was cut short.
+  const bool converged = summary.termination == BundleAdjuster::Termination::kConvergence;
   constexpr int kCalmAdjustments = 3;
   for (auto it = self_calibrating_.begin(); it != self_calibrating_.end();) {
     auto& [camera_id, calm] = *it;
     const double change = std::abs(reconstruction_.camera(camera_id).MeanFocalLength() /
                                        before.at(camera_id).MeanFocalLength() -
                                    1);
-    calm = change < options_.self_calibration_converged_change ? calm + 1 : 0;
+    calm = converged && change < options_.self_calibration_converged_change ? calm + 1 : 0;
     it = calm >= kCalmAdjustments ? self_calibrating_.erase(it) : std::next(it);
   }
 }

@@ -88,8 +88,10 @@ struct ImageResult {
   int ba_images = 0;
   int ba_points = 0;
   int ba_iterations = 0;
-  // A global BA ran as well (guessed intrinsics converging).
+  // A global BA ran as well (guessed intrinsics converging), and its
+  // iterations.
   bool global_ba = false;
+  int global_ba_iterations = 0;
   // The focal length (pixels) that the initial pairs' F put in place of a
   // guess far off, with this image (step 6, before any pose).
   std::optional<double> focal_length_from_pairs;

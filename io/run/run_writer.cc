@@ -42,7 +42,8 @@ nlohmann::json ToJson(const ImageResult& result) {
               {"images", result.ba_images},
               {"points", result.ba_points},
               {"iterations", result.ba_iterations},
-              {"global", result.global_ba}}},
+              {"global", result.global_ba},
+              {"global_iterations", result.global_ba_iterations}}},
       {"model_images", result.model_images},
       {"model_points", result.model_points}};
   if (result.image_id != kInvalidImageId) json["image_id"] = result.image_id;

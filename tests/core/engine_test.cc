@@ -255,6 +255,27 @@ TEST_CASE("Guessed intrinsics get a global BA each time the model grows by a qua
   CHECK(double(model_sizes.size()) <=
         2 + std::ceil(std::log(num_images / 2) /
                       std::log(Engine::Options().self_calibration_growth)));
+  SECTION("past self_calibration_max_observations, with fewer iterations") {
+    // A budget of one observation: every BA gets the fewest iterations.
+    Engine::Options options;
+    options.self_calibration_max_observations = 1;
+    options.self_calibration_min_iterations = 2;
+    Engine cut(options);
+    const Run cut_run = Feed(&cut, Capture().frames);
+    int num_global_bas = 0;
+    for (const ImageResult& result : cut_run.All()) {
+      if (!result.global_ba) continue;
+      ++num_global_bas;
+      CHECK(result.global_ba_iterations <= 2);
+    }
+    CHECK(num_global_bas >= 1);
+    CheckAllRegisteredOnce(cut, cut_run, Capture().frames.size());
+    // Each goes on from where the last stopped, and Finish's BA is whole.
+    const Reconstruction& model = cut.reconstruction();
+    CHECK(model.cameras().begin()->second.MeanFocalLength() ==
+          Approx(Capture().camera.MeanFocalLength()).epsilon(0.02));
+    CHECK(CenterRmse(model, Capture()) < 2 * kCenterTolerance);
+  }
   SECTION("switched off") {
     Engine::Options options;
     options.self_calibration_growth = 0;
@@ -354,6 +375,9 @@ TEST_CASE("Invalid options are refused, naming the option") {
   options = Engine::Options();
   options.self_calibration_growth = 1;
   CHECK_THROWS_WITH(Engine(options), Catch::Contains("self_calibration_growth"));
+  options = Engine::Options();
+  options.self_calibration_min_iterations = 0;
+  CHECK_THROWS_WITH(Engine(options), Catch::Contains("self_calibration_min_iterations"));
 }
 
 }  // namespace
