@@ -6,7 +6,7 @@
 // refinement unit to end). Ends with one line of JSON.
 //
 //   bench_refine [--data DIR] [--sets fountain,temple,fr3,fr1,fr1nok] [--interval S]
-//                [--fr1-intervals S,S] [--fr1-frames N] [--no-colmap]
+//                [--fr1-intervals S,S] [--fr1-frames N] [--repeat N] [--no-colmap]
 //                [--work DIR]
 //
 // Images are fed as `flysfm live` feeds them: one every --interval seconds
@@ -16,9 +16,17 @@
 // (`finish_s`), as RunEngine does. COLMAP runs
 // exhaustive matching and its mapper with the same intrinsics held fixed,
 // on 2 threads, no GPU.
+//
+// --repeat N runs each set off then on N times: the latency figures pool the
+// repeats, the accuracy is the first's, and each image's own stages on less
+// off (paired by image and repeat) give the difference refinement makes to
+// them with a distribution-free 95 % interval: a few milliseconds between
+// two runs of a 19-image set are within what the machine itself varies.
 
 #include <algorithm>
+#include <array>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -91,6 +99,8 @@ struct Run {
   // SIFT, and the time they waited (for the image before them, or for a
   // refinement step to end), which is the latency less all their stages.
   std::vector<double> own_ms;
+  std::vector<StageTimes> own_times;  // their stages, for the stage medians
+  std::map<std::string, double> own_ms_by_name;
   std::vector<double> delay_ms;
   Engine::RefinementTotals refinement;
   double finish_s = 0;
@@ -118,6 +128,8 @@ Run RunPaced(const DataSet& set, bool refine, double interval_s) {
       if (!on_arrival || result.name != results.front().name) continue;
       const StageTimes& times = result.times;
       run.own_ms.push_back(times.total - times.decode - times.features);
+      run.own_times.push_back(times);
+      run.own_ms_by_name[result.name] = run.own_ms.back();
       run.delay_ms.push_back(latency - times.total);
     }
   };
@@ -217,7 +229,50 @@ DataSet Tum(const fs::path& dir, const std::string& name, const std::string& cam
   return set;
 }
 
+// Adds a repeat's latencies to `run`'s.
+void Pool(const Run& repeat, Run* run) {
+  const auto append = [](const auto& from, auto* to) {
+    to->insert(to->end(), from.begin(), from.end());
+  };
+  append(repeat.latency_ms, &run->latency_ms);
+  append(repeat.own_ms, &run->own_ms);
+  append(repeat.own_times, &run->own_times);
+  append(repeat.delay_ms, &run->delay_ms);
+}
+
+// The median of `values` with the distribution-free 95 % interval of the
+// sign test: the order statistics k and n + 1 - k for the largest k with
+// P(Binomial(n, 1/2) < k) <= 2.5 %; {median, min, max} for n < 6.
+std::array<double, 3> MedianWithInterval(std::vector<double> values) {
+  std::sort(values.begin(), values.end());
+  const int n = int(values.size());
+  if (n == 0) return {0, 0, 0};
+  int k = 0;  // values below the interval
+  double below = 0;
+  for (int i = 0; i < n; ++i) {
+    below += std::exp(std::lgamma(n + 1.0) - std::lgamma(i + 1.0) - std::lgamma(n - i + 1.0) -
+                      n * std::log(2.0));
+    if (below > 0.025) break;
+    k = i + 1;
+  }
+  return {Percentile(values, 0.5), values[k], values[n - 1 - k]};
+}
+
+// The median of each of the images' own stages (after SIFT), by name.
+std::vector<std::pair<const char*, double>> OwnStageMedians(const Run& run) {
+  std::vector<std::pair<const char*, double>> medians;
+  for (const auto& [name, stage] : StageTimes::Stages()) {
+    if (stage == &StageTimes::decode || stage == &StageTimes::features) continue;
+    std::vector<double> values;
+    for (const StageTimes& times : run.own_times) values.push_back(times.*stage);
+    medians.emplace_back(name, Percentile(values, 0.5));
+  }
+  return medians;
+}
+
 nlohmann::json ToJson(const Run& run, const char* unit, double scale) {
+  nlohmann::json own_stages;
+  for (const auto& [name, median] : OwnStageMedians(run)) own_stages[name] = median;
   return {{"registered", run.accuracy.registered},
           {std::string("error_") + unit,
            run.accuracy.error_m ? nlohmann::json(*run.accuracy.error_m * scale) : nullptr},
@@ -227,6 +282,7 @@ nlohmann::json ToJson(const Run& run, const char* unit, double scale) {
             {"max", Percentile(run.latency_ms, 1.0)}}},
           {"own_ms",
            {{"median", Percentile(run.own_ms, 0.5)}, {"p95", Percentile(run.own_ms, 0.95)}}},
+          {"own_stage_median_ms", own_stages},
           {"delay_ms",
            {{"median", Percentile(run.delay_ms, 0.5)}, {"p95", Percentile(run.delay_ms, 0.95)}}},
           {"refinement",
@@ -251,6 +307,7 @@ int main(int argc, char** argv) {
   double interval_s = 3.5;
   std::vector<double> fr1_intervals_s = {1.0 / 30, 1.0};
   int fr1_frames = 330;
+  int repeat = 1;
   bool colmap = std::system("command -v colmap > /dev/null 2>&1") == 0;
   fs::path work = fs::temp_directory_path() / "bench_refine";
   for (int i = 1; i < argc; ++i) {
@@ -266,13 +323,16 @@ int main(int argc, char** argv) {
       for (const std::string& value : Split(argv[++i])) fr1_intervals_s.push_back(std::stod(value));
     } else if (!std::strcmp(argv[i], "--fr1-frames") && has_value) {
       fr1_frames = std::atoi(argv[++i]);
+    } else if (!std::strcmp(argv[i], "--repeat") && has_value && std::atoi(argv[i + 1]) > 0) {
+      repeat = std::atoi(argv[++i]);
     } else if (!std::strcmp(argv[i], "--no-colmap")) {
       colmap = false;
     } else if (!std::strcmp(argv[i], "--work") && has_value) {
       work = argv[++i];
     } else {
       std::cerr << "usage: bench_refine [--data DIR] [--sets fountain,temple,fr3,fr1,fr1nok] "
-                   "[--interval S] [--fr1-intervals S,S] [--fr1-frames N] [--no-colmap] "
+                   "[--interval S] [--fr1-intervals S,S] [--fr1-frames N] [--repeat N] "
+                   "[--no-colmap] "
                    "[--work DIR]\n";
       return 2;
     }
@@ -320,8 +380,28 @@ int main(int argc, char** argv) {
     double colmap_s = 0;
     if (colmap && set.colmap) colmap_accuracy = RunColmap(set, work / key, &colmap_s);
     for (const double interval : set.intervals_s) {
-      const Run off = RunPaced(set, false, interval);
-      const Run on = RunPaced(set, true, interval);
+      Run off, on;
+      std::vector<double> own_on_less_off;
+      std::vector<double> repeat_medians;  // of each repeat's differences
+      for (int r = 0; r < repeat; ++r) {
+        const Run off_repeat = RunPaced(set, false, interval);
+        const Run on_repeat = RunPaced(set, true, interval);
+        std::vector<double> differences;
+        for (const auto& [name, ms] : on_repeat.own_ms_by_name) {
+          const auto it = off_repeat.own_ms_by_name.find(name);
+          if (it != off_repeat.own_ms_by_name.end()) differences.push_back(ms - it->second);
+        }
+        repeat_medians.push_back(Percentile(differences, 0.5));
+        own_on_less_off.insert(own_on_less_off.end(), differences.begin(), differences.end());
+        if (r == 0) {
+          off = off_repeat;
+          on = on_repeat;
+        } else {
+          Pool(off_repeat, &off);
+          Pool(on_repeat, &on);
+        }
+      }
+      const std::array<double, 3> own_difference = MedianWithInterval(own_on_less_off);
       const auto error = [&](const std::optional<double>& error_m) {
         char text[32] = "-";
         if (error_m) std::snprintf(text, sizeof(text), "%.2f %s", *error_m * scale, unit);
@@ -350,12 +430,31 @@ int main(int argc, char** argv) {
                   on.refinement.num_pairs_verified, on.refinement.num_pairs_tried,
                   on.refinement.num_pairs_linked, on.refinement.num_global_bas,
                   on.refinement.ms / 1000);
+      std::printf("|   own stages' medians, ms off / on: ");
+      const auto off_stages = OwnStageMedians(off);
+      const auto on_stages = OwnStageMedians(on);
+      for (std::size_t i = 0; i < off_stages.size(); ++i) {
+        std::printf("%s%s %.1f / %.1f", i ? ", " : "", off_stages[i].first, off_stages[i].second,
+                    on_stages[i].second);
+      }
+      std::printf(" |\n|   own stages on less off, paired by image (%zu pairs, %d repeat%s): "
+                  "median %+.1f ms, 95 %% interval [%+.1f, %+.1f]; each repeat's median:",
+                  own_on_less_off.size(), repeat, repeat > 1 ? "s" : "", own_difference[0],
+                  own_difference[1], own_difference[2]);
+      for (const double median : repeat_medians) std::printf(" %+.1f", median);
+      std::printf(" |\n");
       std::fflush(stdout);
       nlohmann::json entry = {{"set", set.name},
                               {"images", set.frames.size()},
                               {"interval_s", interval},
                               {"off", ToJson(off, unit, scale)},
-                              {"on", ToJson(on, unit, scale)}};
+                              {"on", ToJson(on, unit, scale)},
+                              {"repeats", repeat},
+                              {"own_on_less_off_ms",
+                               {{"median", own_difference[0]},
+                                {"interval95", {own_difference[1], own_difference[2]}},
+                                {"pairs", own_on_less_off.size()},
+                                {"repeat_medians", repeat_medians}}}};
       if (colmap_accuracy) {
         entry["colmap"] = {{"registered", colmap_accuracy->registered},
                            {std::string("error_") + unit,
