@@ -241,19 +241,20 @@ void Pool(const Run& repeat, Run* run) {
 }
 
 // The median of `values` with the distribution-free 95 % interval of the
-// sign test: the order statistics k and n + 1 - k for the largest k with
-// P(Binomial(n, 1/2) < k) <= 2.5 %; {median, min, max} for n < 6.
+// sign test: the order statistics k + 1 and n - k (from 1) for the largest k
+// with P(Binomial(n, 1/2) <= k) <= 2.5 %, which the median lies outside only
+// when at most k values fall on one side of it; {median, min, max} for n < 6.
 std::array<double, 3> MedianWithInterval(std::vector<double> values) {
   std::sort(values.begin(), values.end());
   const int n = int(values.size());
   if (n == 0) return {0, 0, 0};
-  int k = 0;  // values below the interval
-  double below = 0;
+  int k = 0;  // values left out on each side
+  double at_most = 0;  // P(Binomial(n, 1/2) <= i)
   for (int i = 0; i < n; ++i) {
-    below += std::exp(std::lgamma(n + 1.0) - std::lgamma(i + 1.0) - std::lgamma(n - i + 1.0) -
-                      n * std::log(2.0));
-    if (below > 0.025) break;
-    k = i + 1;
+    at_most += std::exp(std::lgamma(n + 1.0) - std::lgamma(i + 1.0) -
+                        std::lgamma(n - i + 1.0) - n * std::log(2.0));
+    if (at_most > 0.025) break;
+    k = i;
   }
   return {Percentile(values, 0.5), values[k], values[n - 1 - k]};
 }
