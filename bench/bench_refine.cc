@@ -98,14 +98,21 @@ struct Run {
   // Of the images registered on arrival: the time of their own stages after
   // SIFT, and the time they waited (for the image before them, or for a
   // refinement step to end), which is the latency less all their stages.
-  std::vector<double> own_ms;
-  std::vector<StageTimes> own_times;  // their stages, for the stage medians
+  std::vector<StageTimes> own_times;
   std::map<std::string, double> own_ms_by_name;
   std::vector<double> delay_ms;
   Engine::RefinementTotals refinement;
   double finish_s = 0;
   double wall_s = 0;
 };
+
+double OwnMs(const StageTimes& times) { return times.total - times.decode - times.features; }
+
+std::vector<double> OwnMs(const Run& run) {
+  std::vector<double> own_ms;
+  for (const StageTimes& times : run.own_times) own_ms.push_back(OwnMs(times));
+  return own_ms;
+}
 
 Run RunPaced(const DataSet& set, bool refine, double interval_s) {
   const auto start = std::chrono::steady_clock::now();
@@ -127,9 +134,8 @@ Run RunPaced(const DataSet& set, bool refine, double interval_s) {
       run.latency_ms.push_back(latency);
       if (!on_arrival || result.name != results.front().name) continue;
       const StageTimes& times = result.times;
-      run.own_ms.push_back(times.total - times.decode - times.features);
       run.own_times.push_back(times);
-      run.own_ms_by_name[result.name] = run.own_ms.back();
+      run.own_ms_by_name[result.name] = OwnMs(times);
       run.delay_ms.push_back(latency - times.total);
     }
   };
@@ -235,7 +241,6 @@ void Pool(const Run& repeat, Run* run) {
     to->insert(to->end(), from.begin(), from.end());
   };
   append(repeat.latency_ms, &run->latency_ms);
-  append(repeat.own_ms, &run->own_ms);
   append(repeat.own_times, &run->own_times);
   append(repeat.delay_ms, &run->delay_ms);
 }
@@ -282,7 +287,7 @@ nlohmann::json ToJson(const Run& run, const char* unit, double scale) {
             {"p95", Percentile(run.latency_ms, 0.95)},
             {"max", Percentile(run.latency_ms, 1.0)}}},
           {"own_ms",
-           {{"median", Percentile(run.own_ms, 0.5)}, {"p95", Percentile(run.own_ms, 0.95)}}},
+           {{"median", Percentile(OwnMs(run), 0.5)}, {"p95", Percentile(OwnMs(run), 0.95)}}},
           {"own_stage_median_ms", own_stages},
           {"delay_ms",
            {{"median", Percentile(run.delay_ms, 0.5)}, {"p95", Percentile(run.delay_ms, 0.95)}}},
@@ -412,7 +417,7 @@ int main(int argc, char** argv) {
         char text[96];
         std::snprintf(text, sizeof(text), "%.0f / %.0f / %.0f (own %.0f, waited %.0f / %.0f)",
                       Percentile(run.latency_ms, 0.5), Percentile(run.latency_ms, 0.95),
-                      Percentile(run.latency_ms, 1.0), Percentile(run.own_ms, 0.5),
+                      Percentile(run.latency_ms, 1.0), Percentile(OwnMs(run), 0.5),
                       Percentile(run.delay_ms, 0.5), Percentile(run.delay_ms, 0.95));
         return std::string(text);
       };
