@@ -32,6 +32,8 @@ struct AddedResidual {
   ceres::CostFunction* cost = nullptr;  // owned by the Ceres problem
   std::vector<double*> blocks;
   bool pose_free = false;
+  // blocks[point_block] is the point (after the pose's two blocks, if any).
+  int point_block = 0;
 };
 
 // The poses held constant for the solve (the problem's flags plus the gauge)
@@ -144,15 +146,11 @@ std::vector<Matrix6d> WeightedPoseInformation(
     if (!linked[obs.point]) continue;
     const bool pose_wanted = residual.pose_free && weighted[obs.image];
     std::vector<double*> jacobians(residual.blocks.size(), nullptr);
-    if (residual.pose_free) {
-      if (pose_wanted) {
-        jacobians[0] = j_rotation.data();
-        jacobians[1] = j_translation.data();
-      }
-      jacobians[2] = j_point.data();
-    } else {
-      jacobians[0] = j_point.data();
+    if (pose_wanted) {
+      jacobians[0] = j_rotation.data();
+      jacobians[1] = j_translation.data();
     }
+    jacobians[residual.point_block] = j_point.data();
     if (!residual.cost->Evaluate(residual.blocks.data(), r.data(),
                                  jacobians.data())) {
       continue;
@@ -273,7 +271,8 @@ bool BundleAdjuster::Options::Check() const {
          max_num_iterations > 0 && max_solver_time_seconds > 0 &&
          function_tolerance >= 0 && gradient_tolerance >= 0 &&
          parameter_tolerance >= 0 && num_threads >= 1 && max_focal_length_change > 1 &&
-         max_principal_point_offset >= 0 && max_principal_point_offset < 0.5;
+         max_principal_point_offset >= 0 && max_principal_point_offset < 0.5 &&
+         max_readout_time_seconds > 0;
 }
 
 std::string BundleAdjuster::Summary::BriefReport() const {
@@ -318,6 +317,13 @@ BundleAdjuster::Summary BundleAdjuster::Solve(BundleProblem* problem) const {
     camera_free[c] = constant_intrinsics[c].size() <
                      problem->cameras[c].params.size();
   }
+  // A readout time is observable only through moving images.
+  std::vector<char> readout_free(num_cameras, 0);
+  if (options_.refine_readout_time) {
+    for (const BundleImage& image : problem->images) {
+      if (image.IsMoving()) readout_free[image.camera] = 1;
+    }
+  }
 
   ceres::Problem::Options problem_options;
   problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
@@ -328,6 +334,7 @@ BundleAdjuster::Summary BundleAdjuster::Solve(BundleProblem* problem) const {
   std::vector<AddedResidual> residuals;
   std::vector<char> image_added(num_images, 0);
   std::vector<char> camera_added(num_cameras, 0);
+  std::vector<char> pose_block_held(num_images, 0);
   for (int i = 0; i < num_images; ++i) {
     if (!gauge.constant_pose[i]) problem->images[i].cam_from_world.rotation.normalize();
   }
@@ -335,16 +342,33 @@ BundleAdjuster::Summary BundleAdjuster::Solve(BundleProblem* problem) const {
     const BundleObservation& obs = problem->observations[o];
     BundleImage& image = problem->images[obs.image];
     const bool pose_free = !gauge.constant_pose[obs.image];
-    if (!pose_free && !point_free[obs.point] && !camera_free[image.camera]) continue;
+    if (!pose_free && !point_free[obs.point] && !camera_free[image.camera] &&
+        !readout_free[image.camera]) {
+      continue;
+    }
     Camera& camera = problem->cameras[image.camera];
     AddedResidual residual;
     residual.observation = o;
     residual.pose_free = pose_free;
-    if (pose_free) {
+    if (image.IsMoving()) {
+      // A held pose enters as constant blocks: the folded constant-pose
+      // cost has no readout time to refine.
+      residual.cost = CreateRollingShutterReprojectionCost(
+          camera.model_id, obs.pixel, RowTimeFraction(obs.pixel.y(), camera.height),
+          image.angular_velocity, image.linear_velocity);
+      residual.blocks = {image.cam_from_world.rotation.coeffs().data(),
+                         image.cam_from_world.translation.data(),
+                         problem->points[obs.point].data(), camera.params.data(),
+                         &camera.readout_time};
+      residual.point_block = 2;
+      image_added[obs.image] = pose_free;
+      pose_block_held[obs.image] = !pose_free;
+    } else if (pose_free) {
       residual.cost = CreateReprojectionCost(camera.model_id, obs.pixel);
       residual.blocks = {image.cam_from_world.rotation.coeffs().data(),
                          image.cam_from_world.translation.data(),
                          problem->points[obs.point].data(), camera.params.data()};
+      residual.point_block = 2;
       image_added[obs.image] = 1;
     } else {
       residual.cost = CreateConstantPoseReprojectionCost(
@@ -389,6 +413,14 @@ BundleAdjuster::Summary BundleAdjuster::Solve(BundleProblem* problem) const {
     ordering->AddElementToGroup(pose.rotation.coeffs().data(), 1);
     ordering->AddElementToGroup(pose.translation.data(), 1);
   }
+  for (int i = 0; i < num_images; ++i) {
+    if (!pose_block_held[i]) continue;
+    Rigid3d& pose = problem->images[i].cam_from_world;
+    ceres_problem.SetParameterBlockConstant(pose.rotation.coeffs().data());
+    ceres_problem.SetParameterBlockConstant(pose.translation.data());
+    ordering->AddElementToGroup(pose.rotation.coeffs().data(), 1);
+    ordering->AddElementToGroup(pose.translation.data(), 1);
+  }
   for (int p = 0; p < num_points; ++p) {
     if (!point_observed[p]) continue;
     double* point = problem->points[p].data();
@@ -403,6 +435,17 @@ BundleAdjuster::Summary BundleAdjuster::Solve(BundleProblem* problem) const {
   }
   for (int c = 0; c < num_cameras; ++c) {
     if (!camera_added[c]) continue;
+    double* readout = &problem->cameras[c].readout_time;
+    if (ceres_problem.HasParameterBlock(readout)) {
+      ordering->AddElementToGroup(readout, 1);
+      if (readout_free[c]) {
+        const double reach = options_.max_readout_time_seconds;
+        ceres_problem.SetParameterLowerBound(readout, 0, std::min(*readout, -reach));
+        ceres_problem.SetParameterUpperBound(readout, 0, std::max(*readout, reach));
+      } else {
+        ceres_problem.SetParameterBlockConstant(readout);
+      }
+    }
     double* params = problem->cameras[c].params.data();
     ordering->AddElementToGroup(params, 1);
     if (!camera_free[c]) {

@@ -35,6 +35,12 @@ class BundleAdjuster {
     // run off to a degenerate camera that the next images could not undo.
     double max_focal_length_change = 1.5;
     double max_principal_point_offset = 0.1;
+    // The rolling-shutter readout time of every camera with a moving image
+    // (BundleImage::IsMoving), within +-`max_readout_time_seconds` (a sensor
+    // read bottom to top has a negative one). A video's frame interval
+    // bounds it physically; 0.1 s is a 10 Hz camera's.
+    bool refine_readout_time = false;
+    double max_readout_time_seconds = 0.1;
 
     // What holds the 7-DoF similarity gauge of a free block.
     enum class Gauge {

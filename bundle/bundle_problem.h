@@ -24,6 +24,15 @@ struct BundleImage {
   // The pose is not refined (p = infinity in Eq. 4; images outside the local
   // block that observe its points).
   bool constant_pose = false;
+  // The camera's motion while its rows are read out, in its own frame per
+  // second (Camera::InCamAtRow): the pose is the middle row's. Zero for a
+  // still camera (every photo).
+  Eigen::Vector3d angular_velocity = Eigen::Vector3d::Zero();
+  Eigen::Vector3d linear_velocity = Eigen::Vector3d::Zero();
+
+  bool IsMoving() const {
+    return !angular_velocity.isZero(0) || !linear_velocity.isZero(0);
+  }
 };
 
 struct BundleObservation {

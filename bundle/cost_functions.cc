@@ -77,6 +77,40 @@ void PointAndParamJacobians(const Projection<Model>& projection,
   }
 }
 
+// A point block in the frame of a pose's two blocks: R, R X and R X + t.
+struct PosedPoint {
+  PosedPoint(const double* quaternion, const double* translation, const double* point)
+      : rotation(Eigen::Map<const Eigen::Quaterniond>(quaternion).toRotationMatrix()),
+        rotated(rotation * Eigen::Map<const Eigen::Vector3d>(point)),
+        in_cam(rotated + Eigen::Map<const Eigen::Vector3d>(translation)) {}
+  Eigen::Matrix3d rotation;
+  Eigen::Vector3d rotated;
+  Eigen::Vector3d in_cam;
+};
+
+// Writes the derivatives of the residual with respect to the rotation and the
+// translation, given its derivative with respect to the point in the camera
+// frame, d_in_cam, and R X (`rotated`).
+void PoseJacobians(const Eigen::Matrix<double, 2, 3, Eigen::RowMajor>& d_in_cam,
+                   const double* quaternion, const Eigen::Vector3d& rotated,
+                   double* d_rotation, double* d_translation) {
+  if (d_rotation != nullptr) {
+    Eigen::Matrix3d minus_2_skew;
+    minus_2_skew << 0, 2 * rotated.z(), -2 * rotated.y(),  //
+        -2 * rotated.z(), 0, 2 * rotated.x(),              //
+        2 * rotated.y(), -2 * rotated.x(), 0;
+    Eigen::Matrix<double, 4, 3, Eigen::RowMajor> plus_jacobian;
+    ceres::EigenQuaternionManifold().PlusJacobian(quaternion,
+                                                  plus_jacobian.data());
+    Eigen::Map<Eigen::Matrix<double, 2, 4, Eigen::RowMajor>> jacobian(d_rotation);
+    jacobian = d_in_cam * minus_2_skew * plus_jacobian.transpose();
+  }
+  if (d_translation != nullptr) {
+    Eigen::Map<Eigen::Matrix<double, 2, 3, Eigen::RowMajor>> jacobian(d_translation);
+    jacobian = d_in_cam;
+  }
+}
+
 // Residual and Jacobians in closed form for the pose and point, the model's
 // projection differentiated automatically (Projection above): about three
 // times faster than differentiating the whole chain with Jets of 10 + #params.
@@ -94,41 +128,78 @@ class ReprojectionCost
 
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override {
-    const Eigen::Map<const Eigen::Quaterniond> rotation(parameters[0]);
-    const Eigen::Matrix3d r = rotation.toRotationMatrix();
-    const Eigen::Vector3d rotated =
-        r * Eigen::Map<const Eigen::Vector3d>(parameters[2]);
-    const Eigen::Vector3d in_cam =
-        rotated + Eigen::Map<const Eigen::Vector3d>(parameters[1]);
+    const PosedPoint posed(parameters[0], parameters[1], parameters[2]);
     Projection<Model> projection;
-    projection.Evaluate(parameters[3], in_cam, jacobians != nullptr,
+    projection.Evaluate(parameters[3], posed.in_cam, jacobians != nullptr,
                         jacobians != nullptr && jacobians[3] != nullptr);
     residuals[0] = projection.pixel.x() - pixel_.x();
     residuals[1] = projection.pixel.y() - pixel_.y();
     if (jacobians == nullptr) return true;
-    if (jacobians[0] != nullptr) {
-      Eigen::Matrix3d minus_2_skew;
-      minus_2_skew << 0, 2 * rotated.z(), -2 * rotated.y(),  //
-          -2 * rotated.z(), 0, 2 * rotated.x(),              //
-          2 * rotated.y(), -2 * rotated.x(), 0;
-      Eigen::Matrix<double, 4, 3, Eigen::RowMajor> plus_jacobian;
-      ceres::EigenQuaternionManifold().PlusJacobian(parameters[0],
-                                                    plus_jacobian.data());
-      Eigen::Map<Eigen::Matrix<double, 2, 4, Eigen::RowMajor>> d_rotation(
-          jacobians[0]);
-      d_rotation = projection.d_point * minus_2_skew * plus_jacobian.transpose();
-    }
-    if (jacobians[1] != nullptr) {
-      Eigen::Map<Eigen::Matrix<double, 2, 3, Eigen::RowMajor>> d_translation(
-          jacobians[1]);
-      d_translation = projection.d_point;
-    }
-    PointAndParamJacobians(projection, r, jacobians[2], jacobians[3]);
+    PoseJacobians(projection.d_point, parameters[0], posed.rotated, jacobians[0],
+                  jacobians[1]);
+    PointAndParamJacobians(projection, posed.rotation, jacobians[2], jacobians[3]);
     return true;
   }
 
  private:
   Eigen::Vector2d pixel_;
+};
+
+// ReprojectionCost for a rolling-shutter image (BundleImage::IsMoving): the
+// point in the pose's frame, p, is moved to where it is when its row is read,
+// p + tau (w x p + v) with tau = row fraction * readout time, a fifth
+// parameter block. The chain is the rigid one with d(moved)/dp = I + tau [w]x
+// in front.
+template <typename Model>
+class RollingShutterReprojectionCost
+    : public ceres::SizedCostFunction<2, 4, 3, 3, Model::kNumParams, 1> {
+ public:
+  RollingShutterReprojectionCost(const Eigen::Vector2d& pixel,
+                                 double row_time_fraction,
+                                 const Eigen::Vector3d& angular_velocity,
+                                 const Eigen::Vector3d& linear_velocity)
+      : pixel_(pixel),
+        row_time_fraction_(row_time_fraction),
+        angular_velocity_(angular_velocity),
+        linear_velocity_(linear_velocity) {}
+
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override {
+    const PosedPoint posed(parameters[0], parameters[1], parameters[2]);
+    const double tau = row_time_fraction_ * parameters[4][0];
+    const Eigen::Vector3d motion =
+        angular_velocity_.cross(posed.in_cam) + linear_velocity_;
+    Projection<Model> projection;
+    projection.Evaluate(parameters[3], posed.in_cam + tau * motion,
+                        jacobians != nullptr,
+                        jacobians != nullptr && jacobians[3] != nullptr);
+    residuals[0] = projection.pixel.x() - pixel_.x();
+    residuals[1] = projection.pixel.y() - pixel_.y();
+    if (jacobians == nullptr) return true;
+    Eigen::Matrix3d d_moved = Eigen::Matrix3d::Identity();
+    d_moved += tau * (Eigen::Matrix3d() << 0, -angular_velocity_.z(),
+                      angular_velocity_.y(), angular_velocity_.z(), 0,
+                      -angular_velocity_.x(), -angular_velocity_.y(),
+                      angular_velocity_.x(), 0)
+                         .finished();
+    const Eigen::Matrix<double, 2, 3, Eigen::RowMajor> d_in_cam =
+        projection.d_point * d_moved;
+    PoseJacobians(d_in_cam, parameters[0], posed.rotated, jacobians[0], jacobians[1]);
+    // The point enters the projection as d_moved R X.
+    PointAndParamJacobians(projection, d_moved * posed.rotation, jacobians[2],
+                           jacobians[3]);
+    if (jacobians[4] != nullptr) {
+      Eigen::Map<Eigen::Vector2d> d_readout(jacobians[4]);
+      d_readout = projection.d_point * (row_time_fraction_ * motion);
+    }
+    return true;
+  }
+
+ private:
+  Eigen::Vector2d pixel_;
+  double row_time_fraction_;
+  Eigen::Vector3d angular_velocity_;
+  Eigen::Vector3d linear_velocity_;
 };
 
 template <typename Model>
@@ -198,6 +269,17 @@ ceres::CostFunction* CreateReprojectionCost(CameraModelId model_id,
   return VisitCameraModel(model_id, [&](auto model) -> ceres::CostFunction* {
     using Model = decltype(model);
     return new ReprojectionCost<Model>(pixel);
+  });
+}
+
+ceres::CostFunction* CreateRollingShutterReprojectionCost(
+    CameraModelId model_id, const Eigen::Vector2d& pixel,
+    double row_time_fraction, const Eigen::Vector3d& angular_velocity,
+    const Eigen::Vector3d& linear_velocity) {
+  return VisitCameraModel(model_id, [&](auto model) -> ceres::CostFunction* {
+    using Model = decltype(model);
+    return new RollingShutterReprojectionCost<Model>(
+        pixel, row_time_fraction, angular_velocity, linear_velocity);
   });
 }
 

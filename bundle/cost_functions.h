@@ -24,6 +24,16 @@ using Matrix6d = Eigen::Matrix<double, 6, 6>;
 ceres::CostFunction* CreateReprojectionCost(CameraModelId model_id,
                                             const Eigen::Vector2d& pixel);
 
+// The same residual for a rolling-shutter image (bundle_problem.h,
+// BundleImage::IsMoving): the point moves by its row's time, the fraction
+// RowTimeFraction of the camera's readout time, along the image's motion.
+// Parameter blocks: rotation (4), translation (3), point (3), camera params,
+// readout time (1).
+ceres::CostFunction* CreateRollingShutterReprojectionCost(
+    CameraModelId model_id, const Eigen::Vector2d& pixel,
+    double row_time_fraction, const Eigen::Vector3d& angular_velocity,
+    const Eigen::Vector3d& linear_velocity);
+
 // The same residual for an image whose pose is held constant, the pose folded
 // into the cost. Parameter blocks: point (3), camera params.
 ceres::CostFunction* CreateConstantPoseReprojectionCost(

@@ -177,6 +177,7 @@ std::vector<ImageResult> Engine::AddImage(PreparedFrame prepared) {
         prepared.frame.name,
         CameraFor(prepared),
         keypoints);
+    reconstruction_.image(image_id).capture_time = prepared.frame.timestamp;
     lsm_images_.Add(image_id, prepared.grey);
     image_files_[image_id] = prepared.frame.path;
     results[0].image_id = image_id;

@@ -91,9 +91,16 @@ class Engine {
     // (the fixed ripple and images outside the tree; 0: all). Video tracks
     // run over dozens of frames; a few fixed views pin a point as well.
     int ba_max_constant_observers = 2;
-    // Finish() runs a global BA over everything with these options.
+    // Finish() runs a global BA over everything with these options. Global
+    // BAs estimate a rolling shutter's readout time from video frames (their
+    // motion from their neighbours in time, scene_bundle.h); photos are left
+    // as taken by a still camera.
     bool final_global_ba = true;
-    BundleAdjuster::Options global_ba;
+    BundleAdjuster::Options global_ba = [] {
+      BundleAdjuster::Options options;
+      options.refine_readout_time = true;
+      return options;
+    }();
 
     // After each BA: observations farther than this from their projection are
     // dropped, then points seen under less than the angle.

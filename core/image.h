@@ -25,6 +25,14 @@ struct Image {
   std::string name;
   // Set once the image is registered.
   std::optional<Rigid3d> cam_from_world;
+  // When the image was taken, in seconds, if its source knows (a video's
+  // frame times); the motion a rolling shutter needs comes from it.
+  std::optional<double> capture_time;
+  // The camera's motion while a rolling shutter read this image out, in its
+  // own frame per second (Camera::InCamAtRow), as the last bundle adjustment
+  // that modelled it left it; zero for a still camera and for every photo.
+  Eigen::Vector3d angular_velocity = Eigen::Vector3d::Zero();
+  Eigen::Vector3d linear_velocity = Eigen::Vector3d::Zero();
   std::vector<Point2D> points2D;
   // How many of points2D observe a 3D point, kept by Reconstruction.
   int num_points3D = 0;

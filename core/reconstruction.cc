@@ -177,12 +177,14 @@ double Reconstruction::ReprojectionError(image_t image_id, point2D_t point2D_idx
                                          const Eigen::Vector3d& xyz) const {
   const Image& image = images_.at(image_id);
   FLYSFM_CHECK(image.IsRegistered());
-  const Eigen::Vector3d in_cam = *image.cam_from_world * xyz;
+  const Camera& camera = cameras_.at(image.camera_id);
+  const Eigen::Vector2d& xy = image.points2D.at(point2D_idx).xy;
+  const Eigen::Vector3d in_cam = camera.InCamAtRow(
+      *image.cam_from_world * xyz, xy.y(), image.angular_velocity, image.linear_velocity);
   if (in_cam.z() <= std::numeric_limits<double>::epsilon()) {
     return std::numeric_limits<double>::infinity();
   }
-  const Eigen::Vector2d projection = cameras_.at(image.camera_id).ImgFromCam(in_cam);
-  return (projection - image.points2D.at(point2D_idx).xy).norm();
+  return (camera.ImgFromCam(in_cam) - xy).norm();
 }
 
 double Reconstruction::TriangulationAngleDeg(point3D_t point3D_id) const {
@@ -277,7 +279,8 @@ void Reconstruction::Transform(const Sim3d& new_from_old) {
 namespace {
 
 constexpr char kReconstructionMagic[9] = "FSMODEL1";
-constexpr std::uint32_t kReconstructionVersion = 1;
+// 2: a camera's readout time, an image's capture time.
+constexpr std::uint32_t kReconstructionVersion = 2;
 
 struct StoredPoint2D {
   double x;
@@ -299,6 +302,7 @@ void Reconstruction::Write(std::ostream& out) const {
     WriteValue(out, camera.width);
     WriteValue(out, camera.height);
     WriteVector(out, camera.params);
+    WriteValue(out, camera.readout_time);
   }
   WriteCount(out, images_.size());
   std::vector<StoredPoint2D> xy;
@@ -308,6 +312,12 @@ void Reconstruction::Write(std::ostream& out) const {
     WriteString(out, image.name);
     WriteValue(out, std::uint8_t(image.IsRegistered()));
     if (image.IsRegistered()) WriteRigid3d(out, *image.cam_from_world);
+    WriteValue(out, std::uint8_t(image.capture_time.has_value()));
+    if (image.capture_time) WriteValue(out, *image.capture_time);
+    WriteValue(out, std::array<double, 6>{
+                        image.angular_velocity.x(), image.angular_velocity.y(),
+                        image.angular_velocity.z(), image.linear_velocity.x(),
+                        image.linear_velocity.y(), image.linear_velocity.z()});
     xy.clear();
     for (const Point2D& point2D : image.points2D) xy.push_back({point2D.xy.x(), point2D.xy.y()});
     WriteVector(out, xy);
@@ -335,7 +345,8 @@ Reconstruction Reconstruction::Read(std::istream& in) {
     camera.width = ReadValue<int>(in, "camera width");
     camera.height = ReadValue<int>(in, "camera height");
     camera.params = ReadVector<double>(in, "camera parameters", 64);
-    if (!camera.IsValid() || !model.cameras_.emplace(camera_id, camera).second) {
+    camera.readout_time = ReadValue<double>(in, "camera readout time");
+    if (!camera.IsValid() || !std::isfinite(camera.readout_time) || !model.cameras_.emplace(camera_id, camera).second) {
       Corrupt("camera " + std::to_string(camera_id));
     }
   }
@@ -354,6 +365,18 @@ Reconstruction Reconstruction::Read(std::istream& in) {
     image.name = ReadString(in, "image name");
     if (ReadValue<std::uint8_t>(in, "image registration")) {
       image.cam_from_world = ReadRigid3d(in, "image pose");
+    }
+    if (ReadValue<std::uint8_t>(in, "image capture time flag")) {
+      image.capture_time = ReadValue<double>(in, "image capture time");
+      if (!std::isfinite(*image.capture_time)) {
+        Corrupt("capture time of image " + std::to_string(image_id));
+      }
+    }
+    const auto motion = ReadValue<std::array<double, 6>>(in, "image motion");
+    image.angular_velocity = Eigen::Vector3d(motion[0], motion[1], motion[2]);
+    image.linear_velocity = Eigen::Vector3d(motion[3], motion[4], motion[5]);
+    if (!image.angular_velocity.allFinite() || !image.linear_velocity.allFinite()) {
+      Corrupt("motion of image " + std::to_string(image_id));
     }
     for (const StoredPoint2D& xy : ReadVector<StoredPoint2D>(in, "keypoints")) {
       image.points2D.push_back({Eigen::Vector2d(xy.x, xy.y), kInvalidPoint3DId});

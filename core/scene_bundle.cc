@@ -5,8 +5,57 @@
 #include <limits>
 #include <map>
 
+#include <Eigen/Geometry>
+
 namespace flysfm {
 namespace {
+
+// Images taken less than this apart are frames of one video: over so short
+// an interval the camera's velocity is nearly constant, and their relative
+// pose over their time apart is its motion while a frame's rows are read
+// out. Photos taken further apart say nothing of that motion and are left as
+// taken by a still camera. 0.1 s is a 10 Hz video's interval.
+constexpr double kMaxVideoFrameInterval = 0.1;
+
+// Each problem image's motion (BundleImage's velocities) from the registered
+// images nearest before and after it in capture time, within
+// kMaxVideoFrameInterval: the central difference of their poses, or the
+// one-sided difference at a video's ends.
+void SetVideoMotion(const Reconstruction& reconstruction,
+                    const std::vector<image_t>& image_ids, BundleProblem* problem) {
+  std::vector<std::pair<double, image_t>> by_time;
+  for (const image_t id : reconstruction.RegisteredImageIds()) {
+    const std::optional<double>& time = reconstruction.image(id).capture_time;
+    if (time) by_time.emplace_back(*time, id);
+  }
+  std::sort(by_time.begin(), by_time.end());
+  for (std::size_t i = 0; i < image_ids.size(); ++i) {
+    const Image& image = reconstruction.image(image_ids[i]);
+    if (!image.capture_time) continue;
+    const auto it = std::lower_bound(by_time.begin(), by_time.end(),
+                                     std::make_pair(*image.capture_time, image.image_id));
+    if (it == by_time.end() || it->second != image.image_id) continue;
+    auto before = it;
+    if (it != by_time.begin() && it->first - std::prev(it)->first <= kMaxVideoFrameInterval) {
+      before = std::prev(it);
+    }
+    auto after = it;
+    if (std::next(it) != by_time.end() &&
+        std::next(it)->first - it->first <= kMaxVideoFrameInterval) {
+      after = std::next(it);
+    }
+    const double interval = after->first - before->first;
+    if (!(interval > 0)) continue;
+    // The later frame from the earlier one: to first order a rotation by
+    // angle-axis w dt and a shift by v dt of the earlier frame's points.
+    const Rigid3d after_from_before =
+        *reconstruction.image(after->second).cam_from_world *
+        Inverse(*reconstruction.image(before->second).cam_from_world);
+    const Eigen::AngleAxisd rotation(after_from_before.rotation);
+    problem->images[i].angular_velocity = rotation.angle() * rotation.axis() / interval;
+    problem->images[i].linear_velocity = after_from_before.translation / interval;
+  }
+}
 
 // Builds the problem over `weights`' images, solves it and writes back.
 // `max_constant_observers`: per point, at most this many observations from
@@ -78,6 +127,11 @@ SceneBundleResult Adjust(const std::unordered_map<image_t, double>& weights,
 
   SceneBundleResult result;
   if (num_free == 0 || problem.observations.empty()) return result;
+  const bool rolling_shutter =
+      options.refine_readout_time ||
+      std::any_of(problem.cameras.begin(), problem.cameras.end(),
+                  [](const Camera& camera) { return camera.readout_time != 0; });
+  if (rolling_shutter) SetVideoMotion(*reconstruction, image_ids, &problem);
   result.summary = BundleAdjuster(options).Solve(&problem);
   if (!result.summary.IsSolutionUsable()) return result;
 
@@ -89,6 +143,13 @@ SceneBundleResult Adjust(const std::unordered_map<image_t, double>& weights,
   for (std::size_t p = 0; p < point_ids.size(); ++p) {
     reconstruction->point3D(point_ids[p]).xyz = problem.points[p];
     reconstruction->MarkPointChanged(point_ids[p]);
+  }
+  if (rolling_shutter) {
+    for (std::size_t i = 0; i < image_ids.size(); ++i) {
+      Image& image = reconstruction->image(image_ids[i]);
+      image.angular_velocity = problem.images[i].angular_velocity;
+      image.linear_velocity = problem.images[i].linear_velocity;
+    }
   }
   for (const auto& [camera_id, index] : camera_index) {
     reconstruction->camera(camera_id) = problem.cameras[index];

@@ -6,6 +6,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include <Eigen/Geometry>
+
 namespace flysfm {
 namespace {
 
@@ -147,6 +149,13 @@ void Camera::SetFocalLength(double focal) {
 
 double Camera::CamFromImgThreshold(double pixels) const {
   return pixels / MeanFocalLength();
+}
+
+Eigen::Vector3d Camera::InCamAtRow(const Eigen::Vector3d& in_cam, double row,
+                                   const Eigen::Vector3d& angular_velocity,
+                                   const Eigen::Vector3d& linear_velocity) const {
+  const double tau = RowTimeFraction(row, height) * readout_time;
+  return in_cam + tau * (angular_velocity.cross(in_cam) + linear_velocity);
 }
 
 Eigen::Vector2d Camera::ImgFromCam(const Eigen::Vector3d& point_in_cam) const {

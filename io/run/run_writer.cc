@@ -126,6 +126,17 @@ void RunWriter::WriteSummary(const Reconstruction& reconstruction,
                              double wall_seconds) {
   int rejected = 0;
   for (const ImageResult& result : results) rejected += result.status == ImageStatus::kRejected;
+  // The cameras as the model ends with them, with what COLMAP's format has no
+  // place for: a rolling shutter's readout time (0: global shutter or still).
+  nlohmann::json cameras = nlohmann::json::array();
+  for (const auto& [camera_id, camera] : reconstruction.cameras()) {
+    cameras.push_back({{"id", camera_id},
+                       {"model", CameraModelName(camera.model_id)},
+                       {"width", camera.width},
+                       {"height", camera.height},
+                       {"params", camera.params},
+                       {"readout_time_s", camera.readout_time}});
+  }
   const nlohmann::json summary = {
       {"images_in", counts.images_in},
       {"registered", reconstruction.NumRegisteredImages()},
@@ -145,6 +156,7 @@ void RunWriter::WriteSummary(const Reconstruction& reconstruction,
         {"pairs_linked", counts.refinement.num_pairs_linked},
         {"global_bas", counts.refinement.num_global_bas},
         {"ms", counts.refinement.ms}}},
+      {"cameras", cameras},
       {"points", reconstruction.NumPoints3D()},
       {"observations", reconstruction.NumObservations()},
       {"mean_reprojection_error_px", reconstruction.MeanReprojectionError()},

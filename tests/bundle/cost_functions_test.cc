@@ -111,6 +111,83 @@ TEST_CASE("Reprojection costs match the camera models and their derivatives") {
   }
 }
 
+TEST_CASE("The rolling-shutter cost moves the point along the motion by its row's time") {
+  std::mt19937 rng(5);
+  for (const std::string model :
+       {"PINHOLE 500,505,320,240",
+        "FULL_OPENCV 500,505,320,240,-0.05,0.01,0.001,-0.001,0.001,0.01,0,0"}) {
+    INFO(model);
+    const Camera camera = Camera::FromString(model, 640, 480);
+    const int num_params = camera.NumParams();
+    const Rigid3d pose(testing::RandomRotation(rng), Eigen::Vector3d(0.1, -0.2, 4));
+    const Eigen::Vector3d point = Inverse(pose) * (Eigen::Vector3d(0.3, -0.2, 1.0) * 2.5);
+    // A hand-held camera: 0.5 rad/s and 0.3 m/s, read out in 30 ms.
+    const Eigen::Vector3d angular(0.3, -0.4, 0.1), linear(0.2, 0.1, -0.2);
+    const Eigen::Vector2d pixel(300, 400);
+    const double fraction = RowTimeFraction(pixel.y(), camera.height);
+    const std::unique_ptr<ceres::CostFunction> cost(CreateRollingShutterReprojectionCost(
+        camera.model_id, pixel, fraction, angular, linear));
+    const std::unique_ptr<ceres::CostFunction> still(
+        CreateReprojectionCost(camera.model_id, pixel));
+
+    const auto residual_at = [&](const Eigen::VectorXd& delta, RowMatrixXd* jacobian) {
+      Eigen::Quaterniond rotation;
+      ceres::EigenQuaternionManifold().Plus(pose.rotation.coeffs().data(), delta.data(),
+                                            rotation.coeffs().data());
+      const Eigen::Vector3d translation = pose.translation + delta.segment<3>(3);
+      const Eigen::Vector3d moved_point = point + delta.segment<3>(6);
+      std::vector<double> params = camera.params;
+      for (int i = 0; i < num_params; ++i) params[i] += delta[9 + i];
+      const double readout = 0.03 + delta[9 + num_params];
+      const double* blocks[] = {rotation.coeffs().data(), translation.data(),
+                                moved_point.data(), params.data(), &readout};
+      Eigen::Vector2d residual;
+      if (jacobian == nullptr) {
+        REQUIRE(cost->Evaluate(blocks, residual.data(), nullptr));
+        return residual;
+      }
+      RowMatrixXd j_rotation(2, 4), j_translation(2, 3), j_point(2, 3),
+          j_params(2, num_params), j_readout(2, 1);
+      double* jacobians[] = {j_rotation.data(), j_translation.data(), j_point.data(),
+                             j_params.data(), j_readout.data()};
+      REQUIRE(cost->Evaluate(blocks, residual.data(), jacobians));
+      RowMatrixXd plus(4, 3);
+      ceres::EigenQuaternionManifold().PlusJacobian(blocks[0], plus.data());
+      jacobian->resize(2, 10 + num_params);
+      *jacobian << j_rotation * plus, j_translation, j_point, j_params, j_readout;
+      return residual;
+    };
+
+    const int n = 10 + num_params;
+    RowMatrixXd analytic;
+    const Eigen::Vector2d residual = residual_at(Eigen::VectorXd::Zero(n), &analytic);
+    const Eigen::Vector3d in_cam = pose * point;
+    const double tau = fraction * 0.03;
+    const Eigen::Vector2d expected =
+        camera.ImgFromCam(in_cam + tau * (angular.cross(in_cam) + linear)) - pixel;
+    CHECK((residual - expected).norm() < 1e-9);
+    // The motion moves the point by about 0.5 px here: enough to matter.
+    Eigen::Vector2d still_residual;
+    const double* still_blocks[] = {pose.rotation.coeffs().data(), pose.translation.data(),
+                                    point.data(), camera.params.data()};
+    REQUIRE(still->Evaluate(still_blocks, still_residual.data(), nullptr));
+    CHECK((still_residual - residual).norm() > 0.1);
+
+    for (int k = 0; k < n; ++k) {
+      const double h = k < 9 || k == n - 1 ? 1e-6 : 1e-6 * std::max(1.0, std::abs(camera.params[k - 9]));
+      Eigen::VectorXd delta = Eigen::VectorXd::Zero(n);
+      delta[k] = h;
+      const Eigen::Vector2d plus_h = residual_at(delta, nullptr);
+      delta[k] = -h;
+      const Eigen::Vector2d minus_h = residual_at(delta, nullptr);
+      const Eigen::Vector2d numeric = (plus_h - minus_h) / (2 * h);
+      INFO("parameter " << k << ": analytic " << analytic.col(k).transpose()
+                        << ", numeric " << numeric.transpose());
+      CHECK((analytic.col(k) - numeric).norm() < 1e-5 * std::max(1.0, numeric.norm()));
+    }
+  }
+}
+
 TEST_CASE("The pose prior is zero at the prior and L times the tangent near it") {
   std::mt19937 rng(4);
   const Rigid3d prior(testing::RandomRotation(rng), Eigen::Vector3d(1, 2, 3));

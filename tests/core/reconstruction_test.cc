@@ -100,6 +100,37 @@ TEST_CASE("Points behind a camera have an infinite error") {
   CHECK(std::isinf(r.ReprojectionError(e.image_id, e.point2D_idx, behind)));
 }
 
+TEST_CASE("A moving rolling-shutter image's errors are measured at its rows' times") {
+  Fixture f;
+  Reconstruction& r = f.reconstruction;
+  const TrackElement e = r.point3D(f.point_ids[0]).track[0];
+  Image& image = r.image(e.image_id);
+  const Eigen::Vector3d xyz = r.point3D(f.point_ids[0]).xyz;
+  REQUIRE(r.ReprojectionError(e.image_id, e.point2D_idx, xyz) < 1e-9);
+  // Moving at 1 rad/s about y, read out in 30 ms: a row 100 px off the middle
+  // is read 6 ms away from it, where the point has moved by about 3 px.
+  image.angular_velocity = Eigen::Vector3d(0, 1, 0);
+  Camera& camera = r.camera(image.camera_id);
+  camera.readout_time = 0.03;
+  const double moved = r.ReprojectionError(e.image_id, e.point2D_idx, xyz);
+  // A turn by tau about y moves the pixel of normalised (x, y) by
+  // f tau (1 + x^2, x y) to first order.
+  Eigen::Vector2d& keypoint = image.points2D[e.point2D_idx].xy;
+  const double tau = RowTimeFraction(keypoint.y(), camera.height) * camera.readout_time;
+  const Eigen::Vector3d in_cam = *image.cam_from_world * xyz;
+  const double x = in_cam.x() / in_cam.z(), y = in_cam.y() / in_cam.z();
+  CHECK(moved == Approx(std::abs(tau) * camera.MeanFocalLength() *
+                        Eigen::Vector2d(1 + x * x, x * y).norm())
+                     .epsilon(0.05));
+  // Where the moving camera saw it (a fixed point: the row sets the time),
+  // the keypoint is exact again.
+  for (int i = 0; i < 5; ++i) {
+    keypoint = camera.ImgFromCam(camera.InCamAtRow(in_cam, keypoint.y(), image.angular_velocity,
+                                                   image.linear_velocity));
+  }
+  CHECK(r.ReprojectionError(e.image_id, e.point2D_idx, xyz) < 1e-6);
+}
+
 TEST_CASE("Merging two points unites their tracks") {
   Fixture f;
   Reconstruction& r = f.reconstruction;
@@ -239,6 +270,12 @@ TEST_CASE("A model written and read back is the same model; a cut or inconsisten
   const image_t waiting = r.AddImage("waiting.png", r.cameras().begin()->first,
                                      {Eigen::Vector2d(1, 2), Eigen::Vector2d(3, 4)});
   r.AddPoint2D(r.RegisteredImageIds().front(), Eigen::Vector2d(5.5, 6.5));
+  // A video frame's rolling-shutter state: capture time, motion, readout.
+  Image& frame = r.image(r.RegisteredImageIds().front());
+  frame.capture_time = 1305031102.175304;
+  frame.angular_velocity = Eigen::Vector3d(0.1, -0.2, 0.3);
+  frame.linear_velocity = Eigen::Vector3d(-0.4, 0.5, 0.6);
+  r.camera(frame.camera_id).readout_time = 0.025;
   r.UpdatePointErrors();
   std::stringstream stream;
   r.Write(stream);
@@ -253,6 +290,10 @@ TEST_CASE("A model written and read back is the same model; a cut or inconsisten
     const Image& other = read.image(id);
     CHECK(other.name == image.name);
     CHECK(other.num_points3D == image.num_points3D);
+    CHECK(other.capture_time == image.capture_time);
+    CHECK(other.angular_velocity == image.angular_velocity);
+    CHECK(other.linear_velocity == image.linear_velocity);
+    CHECK(read.camera(other.camera_id).readout_time == r.camera(image.camera_id).readout_time);
     REQUIRE(other.points2D.size() == image.points2D.size());
     for (std::size_t i = 0; i < image.points2D.size(); ++i) {
       CHECK(other.points2D[i].xy == image.points2D[i].xy);

@@ -119,6 +119,10 @@ TEST_CASE("The run's sparse/ model reads back, text and binary, as the engine's 
   const nlohmann::json json = nlohmann::json::parse(summary);
   CHECK(json["images_in"].get<int>() == 8);
   CHECK(json["registered"].get<std::size_t>() == run.model.NumRegisteredImages());
+  REQUIRE(json["cameras"].size() == run.model.cameras().size());
+  const Camera& camera = run.model.cameras().begin()->second;
+  CHECK(json["cameras"][0]["params"].get<std::vector<double>>() == camera.params);
+  CHECK(json["cameras"][0]["readout_time_s"].get<double>() == camera.readout_time);
 }
 
 TEST_CASE("A restart keeps the previous model until it has as many images, and the log") {
