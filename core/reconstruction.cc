@@ -269,6 +269,8 @@ void Reconstruction::Transform(const Sim3d& new_from_old) {
       image.cam_from_world = TransformPose(new_from_old, *image.cam_from_world);
       changes_.changed_images.insert(id);
     }
+    // A camera's own frame turns with it; its distances scale.
+    image.linear_velocity *= new_from_old.scale;
   }
   for (auto& [id, point] : points3D_) {
     point.xyz = new_from_old * point.xyz;
