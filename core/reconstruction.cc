@@ -281,7 +281,7 @@ void Reconstruction::Transform(const Sim3d& new_from_old) {
 namespace {
 
 constexpr char kReconstructionMagic[9] = "FSMODEL1";
-// 2: a camera's readout time, an image's capture time.
+// 2: a camera's readout time, an image's capture time and motion.
 constexpr std::uint32_t kReconstructionVersion = 2;
 
 struct StoredPoint2D {
@@ -348,7 +348,8 @@ Reconstruction Reconstruction::Read(std::istream& in) {
     camera.height = ReadValue<int>(in, "camera height");
     camera.params = ReadVector<double>(in, "camera parameters", 64);
     camera.readout_time = ReadValue<double>(in, "camera readout time");
-    if (!camera.IsValid() || !std::isfinite(camera.readout_time) || !model.cameras_.emplace(camera_id, camera).second) {
+    if (!camera.IsValid() || !std::isfinite(camera.readout_time) ||
+        !model.cameras_.emplace(camera_id, camera).second) {
       Corrupt("camera " + std::to_string(camera_id));
     }
   }
