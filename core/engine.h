@@ -101,6 +101,14 @@ class Engine {
       options.refine_readout_time = true;
       return options;
     }();
+    // Finish's global BA ends with data snooping (SnoopOutliers; 0: none):
+    // each image's observations beyond this quantile of its own noise go,
+    // and the poses and points are adjusted again. The 4 px filter below is
+    // the on-the-fly model's, whose noise is not yet known; a finished
+    // model's errors are a tenth or two of a pixel with a heavy tail
+    // (observations measured less well than the rest) that a BA with one
+    // weight treats alike with the good ones. docs/engine.md, step 11.
+    double final_outlier_quantile = 0.99;
 
     // After each BA: observations farther than this from their projection are
     // dropped, then points seen under less than the angle.

@@ -207,6 +207,13 @@ double Reconstruction::TriangulationAngleDeg(point3D_t point3D_id) const {
 std::size_t Reconstruction::FilterPoints3D(const std::vector<point3D_t>& point3D_ids,
                                            double max_error_px,
                                            double min_angle_deg) {
+  return FilterPoints3D(
+      point3D_ids, [max_error_px](image_t) { return max_error_px; }, min_angle_deg);
+}
+
+std::size_t Reconstruction::FilterPoints3D(const std::vector<point3D_t>& point3D_ids,
+                                           const std::function<double(image_t)>& max_error_px,
+                                           double min_angle_deg) {
   std::size_t removed = 0;
   for (const point3D_t id : point3D_ids) {
     if (!ExistsPoint3D(id)) continue;
@@ -216,7 +223,7 @@ std::size_t Reconstruction::FilterPoints3D(const std::vector<point3D_t>& point3D
     for (const TrackElement& element : point.track) {
       if (!ExistsPoint3D(id)) break;
       if (ReprojectionError(element.image_id, element.point2D_idx, point.xyz) >
-          max_error_px) {
+          max_error_px(element.image_id)) {
         DeleteObservation(element.image_id, element.point2D_idx);
       }
     }
@@ -229,12 +236,28 @@ std::size_t Reconstruction::FilterPoints3D(const std::vector<point3D_t>& point3D
   return removed;
 }
 
-std::size_t Reconstruction::FilterAllPoints3D(double max_error_px,
-                                              double min_angle_deg) {
+std::vector<point3D_t> Reconstruction::Point3DIds() const {
   std::vector<point3D_t> ids;
   ids.reserve(points3D_.size());
   for (const auto& [id, point] : points3D_) ids.push_back(id);
-  return FilterPoints3D(ids, max_error_px, min_angle_deg);
+  return ids;
+}
+
+std::size_t Reconstruction::FilterAllPoints3D(double max_error_px,
+                                              double min_angle_deg) {
+  return FilterPoints3D(Point3DIds(), max_error_px, min_angle_deg);
+}
+
+std::size_t Reconstruction::FilterAllPoints3D(
+    const std::unordered_map<image_t, double>& max_error_px, double min_angle_deg) {
+  return FilterPoints3D(
+      Point3DIds(),
+      [&max_error_px](image_t image_id) {
+        const auto bound = max_error_px.find(image_id);
+        return bound == max_error_px.end() ? std::numeric_limits<double>::infinity()
+                                           : bound->second;
+      },
+      min_angle_deg);
 }
 
 void Reconstruction::UpdatePointErrors() {

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <functional>
 #include <istream>
 #include <map>
 #include <ostream>
@@ -106,6 +107,10 @@ class Reconstruction {
   std::size_t FilterPoints3D(const std::vector<point3D_t>& point3D_ids,
                              double max_error_px, double min_angle_deg);
   std::size_t FilterAllPoints3D(double max_error_px, double min_angle_deg);
+  // The same over every point, each observation against its own image's
+  // bound (an image without one: no bound).
+  std::size_t FilterAllPoints3D(const std::unordered_map<image_t, double>& max_error_px,
+                                double min_angle_deg);
   // Recomputes Point3D::error for every point.
   void UpdatePointErrors();
 
@@ -122,6 +127,11 @@ class Reconstruction {
   static Reconstruction Read(std::istream& in);
 
  private:
+  std::size_t FilterPoints3D(const std::vector<point3D_t>& point3D_ids,
+                             const std::function<double(image_t)>& max_error_px,
+                             double min_angle_deg);
+  std::vector<point3D_t> Point3DIds() const;
+
   std::map<camera_t, Camera> cameras_;
   std::map<image_t, Image> images_;
   std::unordered_map<point3D_t, Point3D> points3D_;

@@ -175,4 +175,35 @@ SceneBundleResult AdjustGlobalBundle(const BundleAdjuster::Options& options,
   return Adjust(weights, options, 0, reconstruction);
 }
 
+OutlierSnooping SnoopOutliers(double quantile, BundleAdjuster::Options options,
+                              double min_angle_deg, Reconstruction* reconstruction) {
+  std::unordered_map<image_t, std::vector<double>> errors;
+  for (const auto& [id, point] : reconstruction->points3D()) {
+    for (const TrackElement& element : point.track) {
+      errors[element.image_id].push_back(
+          reconstruction->ReprojectionError(element.image_id, element.point2D_idx, point.xyz));
+    }
+  }
+  // The quantile's error over the median error: sqrt(-2 ln(1 - q)) sigma
+  // over sqrt(2 ln 2) sigma.
+  const double quantile_over_median = std::sqrt(std::log(1 - quantile) / std::log(0.5));
+  OutlierSnooping snooping;
+  for (auto& [image_id, image_errors] : errors) {
+    const auto median = image_errors.begin() + std::ptrdiff_t(image_errors.size() / 2);
+    std::nth_element(image_errors.begin(), median, image_errors.end());
+    snooping.max_error_px[image_id] = *median * quantile_over_median;
+  }
+  snooping.num_removed = reconstruction->FilterAllPoints3D(snooping.max_error_px, min_angle_deg);
+  if (snooping.num_removed == 0) return snooping;
+  options.refine_focal_length = false;
+  options.refine_principal_point = false;
+  options.refine_extra_params = false;
+  options.refine_readout_time = false;
+  snooping.summary = AdjustGlobalBundle(options, reconstruction).summary;
+  // The adjustment moves every error a little; none is left beyond its bound.
+  snooping.num_removed +=
+      reconstruction->FilterAllPoints3D(snooping.max_error_px, min_angle_deg);
+  return snooping;
+}
+
 }  // namespace flysfm

@@ -33,4 +33,26 @@ SceneBundleResult AdjustLocalBundle(
 SceneBundleResult AdjustGlobalBundle(const BundleAdjuster::Options& options,
                                      Reconstruction* reconstruction);
 
+// Data snooping, the last step of a photogrammetric adjustment: after a
+// global BA, each image's noise is estimated from its own errors and the
+// observations it makes improbable are dropped, then the poses and points are
+// adjusted again without them. Image noise isotropic and Gaussian (sigma per
+// coordinate) makes an error's length Rayleigh distributed: its median is
+// sigma sqrt(2 ln 2), robust to the outliers themselves, and a share
+// `quantile` of the inliers lies within sigma sqrt(-2 ln(1 - quantile)).
+// Per image, not one sigma for the model: a blurred photo or a frame shaken
+// during its readout is measured less precisely throughout, and keeps its
+// observations. The cameras are held as the first BA left them: a camera
+// model short of some of the lens' terms leaves systematic errors towards the
+// image border, which the snooping would select away and the intrinsics would
+// then follow (fr1_xyz without K, SIMPLE_RADIAL: focal 535 -> 544 px).
+struct OutlierSnooping {
+  // Per registered image with observations, the error beyond which they went.
+  std::unordered_map<image_t, double> max_error_px;
+  std::size_t num_removed = 0;
+  BundleAdjuster::Summary summary;  // of the BA without them
+};
+OutlierSnooping SnoopOutliers(double quantile, BundleAdjuster::Options options,
+                              double min_angle_deg, Reconstruction* reconstruction);
+
 }  // namespace flysfm
