@@ -82,19 +82,20 @@ TEST_CASE("Filtering drops observations over the reprojection threshold") {
 TEST_CASE("Filtering with a bound per image holds each image's observations to its own") {
   Fixture f;
   Reconstruction& r = f.reconstruction;
-  const point3D_t id = f.point_ids[3];
-  const std::vector<TrackElement> track = r.point3D(id).track;
+  const auto keypoint = [&r](const TrackElement& e) -> Point2D& {
+    return r.image(e.image_id).points2D[e.point2D_idx];
+  };
+  const std::vector<TrackElement> track = r.point3D(f.point_ids[3]).track;
   REQUIRE(track.size() >= 3);
-  for (const int i : {0, 1}) {
-    r.image(track[i].image_id).points2D[track[i].point2D_idx].xy += Eigen::Vector2d(0, 2);
-  }
+  keypoint(track[0]).xy += Eigen::Vector2d(0, 2);
+  keypoint(track[1]).xy += Eigen::Vector2d(0, 2);
   // Image 0's bound lets its 2 px through, image 1's does not; images
   // without a bound keep everything.
   const std::unordered_map<image_t, double> bounds = {{track[0].image_id, 3.0},
                                                       {track[1].image_id, 1.0}};
   CHECK(r.FilterAllPoints3D(bounds, 0.0) == 1);
-  CHECK(r.image(track[0].image_id).points2D[track[0].point2D_idx].HasPoint3D());
-  CHECK_FALSE(r.image(track[1].image_id).points2D[track[1].point2D_idx].HasPoint3D());
+  CHECK(keypoint(track[0]).HasPoint3D());
+  CHECK_FALSE(keypoint(track[1]).HasPoint3D());
   CHECK(r.FilterAllPoints3D(std::unordered_map<image_t, double>(), 0.0) == 0);
 }
 
