@@ -15,7 +15,10 @@
 // none waits (RefineUntilNextFrame), the rest of it and Finish at the end
 // (`finish_s`), as RunEngine does. COLMAP runs
 // exhaustive matching and its mapper with the same intrinsics held fixed,
-// on 2 threads, no GPU.
+// on 2 threads, no GPU. Where it ran on photos, a line compares its
+// per-image centre errors with refinement on's: a large share in common
+// (high correlation, a difference well below either error) says the
+// ground truth's own error is what both measure.
 //
 // --repeat N runs each set off then on N times: the latency figures pool the
 // repeats, the accuracy is the first's, and each image's own stages on less
@@ -70,6 +73,8 @@ struct DataSet {
 struct Accuracy {
   int registered = 0;
   std::optional<double> error_m;  // centre RMSE or ATE RMSE after Sim3
+  // Photos: per image, its camera centre after the Sim3 less the true one.
+  std::map<std::string, Eigen::Vector3d> centre_errors;
 };
 
 Accuracy Evaluate(const Reconstruction& model, const DataSet& set) {
@@ -78,12 +83,45 @@ Accuracy Evaluate(const Reconstruction& model, const DataSet& set) {
   if (!set.centres.empty()) {
     if (const auto errors = CompareCentersByName(model, set.centres)) {
       accuracy.error_m = errors->rmse;
+      for (const image_t id : model.RegisteredImageIds()) {
+        const Image& image = model.image(id);
+        const auto truth = set.centres.find(image.name);
+        if (truth == set.centres.end()) continue;
+        accuracy.centre_errors[image.name] =
+            errors->reference_from_estimate * ProjectionCenter(*image.cam_from_world) -
+            truth->second;
+      }
     }
   } else {
     const TrajectoryEvaluation evaluation = EvaluateTrajectory(TrajectoryOf(model), set.trajectory);
     if (evaluation.ate) accuracy.error_m = evaluation.ate->rmse;
   }
   return accuracy;
+}
+
+// How much of two reconstructions' centre errors they share: where both err
+// alike, against independent pipelines, the error is likely the ground
+// truth's own. The correlation of their per-image error vectors (stacked),
+// and the RMS over images of the difference of the two vectors.
+struct SharedError {
+  double correlation = 0;
+  double difference_rms_m = 0;
+};
+
+std::optional<SharedError> CompareErrors(const Accuracy& a, const Accuracy& b) {
+  double ab = 0, aa = 0, bb = 0, difference = 0;
+  int count = 0;
+  for (const auto& [name, error_a] : a.centre_errors) {
+    const auto error_b = b.centre_errors.find(name);
+    if (error_b == b.centre_errors.end()) continue;
+    ab += error_a.dot(error_b->second);
+    aa += error_a.squaredNorm();
+    bb += error_b->second.squaredNorm();
+    difference += (error_a - error_b->second).squaredNorm();
+    ++count;
+  }
+  if (count < 3 || aa == 0 || bb == 0) return std::nullopt;
+  return SharedError{ab / std::sqrt(aa * bb), std::sqrt(difference / count)};
 }
 
 double Percentile(std::vector<double> values, double p) {
@@ -449,6 +487,13 @@ int main(int argc, char** argv) {
                   own_difference[1], own_difference[2]);
       for (const double median : repeat_medians) std::printf(" %+.1f", median);
       std::printf(" |\n");
+      std::optional<SharedError> shared;
+      if (colmap_accuracy) shared = CompareErrors(on.accuracy, *colmap_accuracy);
+      if (shared) {
+        std::printf("|   centre errors, refinement on and COLMAP, per image: correlation "
+                    "%.2f, RMS of their difference %.2f %s |\n",
+                    shared->correlation, shared->difference_rms_m * scale, unit);
+      }
       std::fflush(stdout);
       nlohmann::json entry = {{"set", set.name},
                               {"images", set.frames.size()},
@@ -468,6 +513,11 @@ int main(int argc, char** argv) {
                                 ? nlohmann::json(*colmap_accuracy->error_m * scale)
                                 : nullptr},
                            {"seconds", colmap_s}};
+        if (shared) {
+          entry["colmap"]["error_correlation_with_on"] = shared->correlation;
+          entry["colmap"][std::string("error_difference_from_on_") + unit] =
+              shared->difference_rms_m * scale;
+        }
       }
       json["sets"].push_back(entry);
     }
