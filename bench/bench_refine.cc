@@ -5,9 +5,13 @@
 // arrival into their own stages after SIFT and the time they waited (for a
 // refinement unit to end). Ends with one line of JSON.
 //
-//   bench_refine [--data DIR] [--sets fountain,temple,fr3,fr1,fr1nok] [--interval S]
-//                [--fr1-intervals S,S] [--fr1-frames N] [--repeat N] [--no-colmap]
-//                [--work DIR]
+//   bench_refine [--data DIR] [--sets fountain,temple,rendered,fr3,fr1,fr1nok]
+//                [--interval S] [--rendered-photos N] [--fr1-intervals S,S]
+//                [--fr1-frames N] [--repeat N] [--no-colmap] [--work DIR]
+//
+// "rendered" is the first --rendered-photos (40) shots of bench_photos'
+// session at 6 MP (bench/photo_session.h), rendered into --work/rendered_photos and
+// reused from there: the one set whose ground truth has no error of its own.
 //
 // Images are fed as `flysfm live` feeds them: one every --interval seconds
 // (photos: 3.5 s, a photographer's pace; fr3: its 1 Hz; fr1_xyz: its 30 Hz
@@ -18,7 +22,11 @@
 // on 2 threads, no GPU. Where it ran on photos, a line compares its
 // per-image centre errors with refinement on's: a large share in common
 // (high correlation, a difference well below either error) says the
-// ground truth's own error is what both measure.
+// ground truth's own error is what both measure. Another tells it from the
+// images: the median reprojection error of each model's observations with
+// its own poses and with the true ones (each point triangulated again;
+// FitObservationsToPoses). Exact poses fit as well as a model's own; the
+// rendered set shows it.
 //
 // --repeat N runs each set off then on N times: the latency figures pool the
 // repeats, the accuracy is the first's, and each image's own stages on less
@@ -44,6 +52,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "bench/photo_session.h"
 #include "core/engine.h"
 #include "io/evaluation/evaluation.h"
 #include "io/formats/colmap_model.h"
@@ -63,8 +72,10 @@ struct DataSet {
   std::vector<Frame> frames;
   std::string camera;  // --camera, in the engine's pixel convention; empty: none
   // Ground truth: camera centres by image name (photos), or a trajectory
-  // (TUM; ATE after Sim3).
+  // (TUM; ATE after Sim3); the photo sets' whole poses, to fit the models'
+  // observations to (FitObservationsToPoses).
   std::map<std::string, Eigen::Vector3d> centres;
+  std::map<std::string, Rigid3d> poses;
   std::vector<StampedPose> trajectory;
   std::vector<double> intervals_s;
   bool colmap = true;  // whether COLMAP is run on it
@@ -75,6 +86,7 @@ struct Accuracy {
   std::optional<double> error_m;  // centre RMSE or ATE RMSE after Sim3
   // Photos: per image, its camera centre after the Sim3 less the true one.
   std::map<std::string, Eigen::Vector3d> centre_errors;
+  std::optional<PoseFit> pose_fit;
 };
 
 Accuracy Evaluate(const Reconstruction& model, const DataSet& set) {
@@ -92,6 +104,7 @@ Accuracy Evaluate(const Reconstruction& model, const DataSet& set) {
             truth->second;
       }
     }
+    if (!set.poses.empty()) accuracy.pose_fit = FitObservationsToPoses(model, set.poses);
   } else {
     const TrajectoryEvaluation evaluation = EvaluateTrajectory(TrajectoryOf(model), set.trajectory);
     if (evaluation.ate) accuracy.error_m = evaluation.ate->rmse;
@@ -254,7 +267,8 @@ DataSet Photos(testing::PhotoSet photos, double interval_s) {
   set.image_dir = photos.frames.front().path.parent_path();
   set.frames = std::move(photos.frames);
   set.camera = std::move(photos.camera);
-  set.centres = std::move(photos.centres);
+  set.centres = photos.Centres();
+  set.poses = std::move(photos.cam_from_world);
   set.intervals_s = {interval_s};
   return set;
 }
@@ -270,6 +284,40 @@ DataSet Tum(const fs::path& dir, const std::string& name, const std::string& cam
   set.trajectory = ReadTumTrajectory((dir / "groundtruth.txt").string());
   set.intervals_s = std::move(intervals_s);
   set.colmap = colmap;
+  return set;
+}
+
+// The first `num_photos` shots of bench_photos' rendered session at 6 MP,
+// rendered into `dir` (kept there for the next run): ground truth without an
+// error of its own, which no real set has.
+DataSet Rendered(int num_photos, const fs::path& dir, double interval_s) {
+  const int width = 3000;
+  const std::uint32_t seed = 1;
+  const int supersampling = 1;
+  DataSet set;
+  set.camera = PhotoSessionCamera(width);
+  const Camera camera = Camera::FromString(set.camera, width, width * 2 / 3);
+  PrepareRenderFolder(dir, seed, camera, supersampling);
+  const std::vector<Shot> shots = MakePhotoSession(num_photos, seed);
+  RenderPhotoSession(shots, camera, seed, supersampling, dir, 2);
+  set.name = "rendered, " + std::to_string(num_photos) + " photos";
+  set.image_dir = dir;
+  for (const Shot& shot : shots) {
+    Frame frame;
+    frame.name = shot.name;
+    frame.path = dir / shot.name;
+    frame.timestamp = double(set.frames.size());
+    set.frames.push_back(frame);
+    set.centres[shot.name] = ProjectionCenter(shot.cam_from_world);
+    set.poses[shot.name] = shot.cam_from_world;
+  }
+  // COLMAP reads the whole folder: photos of a longer run before go.
+  for (const auto& entry : fs::directory_iterator(dir)) {
+    if (entry.path().extension() == ".jpg" && !set.centres.count(entry.path().filename())) {
+      fs::remove(entry.path());
+    }
+  }
+  set.intervals_s = {interval_s};
   return set;
 }
 
@@ -347,7 +395,8 @@ int main(int argc, char** argv) {
   using namespace flysfm;
   std::string data = std::getenv("FLYSFM_DATA") ? std::getenv("FLYSFM_DATA")
                                                 : FLYSFM_DEFAULT_DATA_DIR;
-  std::vector<std::string> sets = {"fountain", "temple", "fr3", "fr1"};
+  std::vector<std::string> sets = {"fountain", "temple", "rendered", "fr3", "fr1"};
+  int rendered_photos = 40;
   double interval_s = 3.5;
   std::vector<double> fr1_intervals_s = {1.0 / 30, 1.0};
   int fr1_frames = 330;
@@ -365,6 +414,9 @@ int main(int argc, char** argv) {
     } else if (!std::strcmp(argv[i], "--fr1-intervals") && has_value) {
       fr1_intervals_s.clear();
       for (const std::string& value : Split(argv[++i])) fr1_intervals_s.push_back(std::stod(value));
+    } else if (!std::strcmp(argv[i], "--rendered-photos") && has_value &&
+               std::atoi(argv[i + 1]) >= 2) {
+      rendered_photos = std::atoi(argv[++i]);
     } else if (!std::strcmp(argv[i], "--fr1-frames") && has_value) {
       fr1_frames = std::atoi(argv[++i]);
     } else if (!std::strcmp(argv[i], "--repeat") && has_value && std::atoi(argv[i + 1]) > 0) {
@@ -374,8 +426,9 @@ int main(int argc, char** argv) {
     } else if (!std::strcmp(argv[i], "--work") && has_value) {
       work = argv[++i];
     } else {
-      std::cerr << "usage: bench_refine [--data DIR] [--sets fountain,temple,fr3,fr1,fr1nok] "
-                   "[--interval S] [--fr1-intervals S,S] [--fr1-frames N] [--repeat N] "
+      std::cerr << "usage: bench_refine [--data DIR] "
+                   "[--sets fountain,temple,rendered,fr3,fr1,fr1nok] [--interval S] "
+                   "[--rendered-photos N] [--fr1-intervals S,S] [--fr1-frames N] [--repeat N] "
                    "[--no-colmap] "
                    "[--work DIR]\n";
       return 2;
@@ -394,6 +447,8 @@ int main(int argc, char** argv) {
         set = Photos(testing::FountainP11(data), interval_s);
       } else if (key == "temple") {
         set = Photos(testing::TempleRing19(data), interval_s);
+      } else if (key == "rendered") {
+        set = Rendered(rendered_photos, work / "rendered_photos", interval_s);
       } else if (key == "fr3") {
         set = Tum(fs::path(data) / "tum/rgbd_dataset_freiburg3_long_office_household_superglue17",
                   "fr3 17 frames", "PINHOLE 535.4,539.2,320.1,247.6", {1.0}, 0, true);
@@ -494,6 +549,20 @@ int main(int argc, char** argv) {
                     "%.2f, RMS of their difference %.2f %s |\n",
                     shared->correlation, shared->difference_rms_m * scale, unit);
       }
+      const auto fit_text = [](const std::optional<PoseFit>& fit) {
+        char text[80] = "-";
+        if (fit) {
+          std::snprintf(text, sizeof(text), "%.3f / %.3f px", fit->model_median_px,
+                        fit->truth_median_px);
+        }
+        return std::string(text);
+      };
+      if (on.accuracy.pose_fit) {
+        std::printf("|   observations' reprojection error, median, with the model's own poses / "
+                    "with the true poses: refinement on %s, COLMAP %s |\n",
+                    fit_text(on.accuracy.pose_fit).c_str(),
+                    fit_text(colmap_accuracy ? colmap_accuracy->pose_fit : std::nullopt).c_str());
+      }
       std::fflush(stdout);
       nlohmann::json entry = {{"set", set.name},
                               {"images", set.frames.size()},
@@ -506,13 +575,20 @@ int main(int argc, char** argv) {
                                 {"interval95", {own_difference[1], own_difference[2]}},
                                 {"pairs", own_on_less_off.size()},
                                 {"repeat_medians", repeat_medians}}}};
+      const auto fit_json = [](const std::optional<PoseFit>& fit) {
+        if (!fit) return nlohmann::json(nullptr);
+        return nlohmann::json{{"own_median_px", fit->model_median_px},
+                              {"true_median_px", fit->truth_median_px}};
+      };
+      if (on.accuracy.pose_fit) entry["on"]["pose_fit"] = fit_json(on.accuracy.pose_fit);
       if (colmap_accuracy) {
         entry["colmap"] = {{"registered", colmap_accuracy->registered},
                            {std::string("error_") + unit,
                             colmap_accuracy->error_m
                                 ? nlohmann::json(*colmap_accuracy->error_m * scale)
                                 : nullptr},
-                           {"seconds", colmap_s}};
+                           {"seconds", colmap_s},
+                           {"pose_fit", fit_json(colmap_accuracy->pose_fit)}};
         if (shared) {
           entry["colmap"]["error_correlation_with_on"] = shared->correlation;
           entry["colmap"][std::string("error_difference_from_on_") + unit] =

@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "geometry/similarity.h"
+#include "geometry/triangulation.h"
 
 namespace flysfm {
 
@@ -48,6 +49,102 @@ std::optional<PositionErrors> CompareCentersByName(
     reference.push_back(it->second);
   }
   return ComparePositionsAfterSim3(estimated, reference);
+}
+
+namespace {
+
+struct View {
+  const Camera* camera;
+  Rigid3d cam_from_world;
+  Eigen::Vector2d pixel;
+};
+
+double Median(std::vector<double> values) {
+  const auto middle = values.begin() + values.size() / 2;
+  std::nth_element(values.begin(), middle, values.end());
+  return *middle;
+}
+
+double Rms(const std::vector<double>& values) {
+  double sum = 0;
+  for (const double v : values) sum += v * v;
+  return std::sqrt(sum / values.size());
+}
+
+Eigen::Vector2d Residual(const View& view, const Eigen::Vector3d& point) {
+  return view.camera->ImgFromCam(view.cam_from_world * point) - view.pixel;
+}
+
+// The DLT's point, then Gauss-Newton on the reprojection errors (numeric
+// derivatives: a few views, a few iterations); nullopt where a view has it
+// behind the camera.
+std::optional<Eigen::Vector3d> TriangulateInPixels(const std::vector<View>& views) {
+  std::vector<Matrix3x4d> matrices;
+  std::vector<Eigen::Vector2d> normalized;
+  for (const View& view : views) {
+    matrices.push_back(view.cam_from_world.ToMatrix());
+    normalized.push_back(view.camera->CamFromImg(view.pixel));
+  }
+  std::optional<Eigen::Vector3d> point = TriangulateMultiViewPoint(matrices, normalized);
+  if (!point) return std::nullopt;
+  for (int iteration = 0; iteration < 10; ++iteration) {
+    Eigen::Matrix3d normal = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d gradient = Eigen::Vector3d::Zero();
+    for (const View& view : views) {
+      if ((view.cam_from_world * *point).z() <= 0) return std::nullopt;
+      const Eigen::Vector2d residual = Residual(view, *point);
+      Eigen::Matrix<double, 2, 3> jacobian;
+      const double step = 1e-6 * std::max(1.0, point->norm());
+      for (int k = 0; k < 3; ++k) {
+        Eigen::Vector3d plus = *point, minus = *point;
+        plus[k] += step;
+        minus[k] -= step;
+        jacobian.col(k) = (Residual(view, plus) - Residual(view, minus)) / (2 * step);
+      }
+      normal += jacobian.transpose() * jacobian;
+      gradient += jacobian.transpose() * residual;
+    }
+    const Eigen::Vector3d delta = normal.ldlt().solve(-gradient);
+    if (!delta.allFinite()) return std::nullopt;
+    *point += delta;
+    if (delta.norm() < 1e-12 * std::max(1.0, point->norm())) break;
+  }
+  return point;
+}
+
+}  // namespace
+
+std::optional<PoseFit> FitObservationsToPoses(
+    const Reconstruction& reconstruction,
+    const std::map<std::string, Rigid3d>& true_cam_from_world) {
+  std::vector<double> model_errors, truth_errors;
+  for (const auto& [point3D_id, point3D] : reconstruction.points3D()) {
+    std::vector<View> views;
+    std::vector<double> own;
+    for (const TrackElement& element : point3D.track) {
+      const Image& image = reconstruction.image(element.image_id);
+      const auto truth = true_cam_from_world.find(image.name);
+      if (truth == true_cam_from_world.end()) continue;
+      views.push_back({&reconstruction.camera(image.camera_id), truth->second,
+                       image.points2D[element.point2D_idx].xy});
+      own.push_back(reconstruction.ReprojectionError(element.image_id, element.point2D_idx, point3D.xyz));
+    }
+    if (views.size() < 2) continue;
+    const std::optional<Eigen::Vector3d> point = TriangulateInPixels(views);
+    if (!point) continue;
+    for (std::size_t i = 0; i < views.size(); ++i) {
+      model_errors.push_back(own[i]);
+      truth_errors.push_back(Residual(views[i], *point).norm());
+    }
+  }
+  if (model_errors.empty()) return std::nullopt;
+  PoseFit fit;
+  fit.num_observations = int(model_errors.size());
+  fit.model_median_px = Median(model_errors);
+  fit.truth_median_px = Median(truth_errors);
+  fit.model_rms_px = Rms(model_errors);
+  fit.truth_rms_px = Rms(truth_errors);
+  return fit;
 }
 
 TrajectoryEvaluation EvaluateTrajectory(const std::vector<StampedPose>& estimated,

@@ -38,6 +38,29 @@ std::optional<PositionErrors> CompareCentersByName(
     const Reconstruction& reconstruction,
     const std::map<std::string, Eigen::Vector3d>& reference_centers);
 
+// How well a model's observations fit true poses, beside how well they fit
+// the model's own: each point is triangulated again from its observations
+// with the true poses and the model's intrinsics (maximum likelihood:
+// least squares in pixels), and its observations' reprojection errors are
+// taken then. Exact poses fit the observations as well as the model's own
+// (which have 6 parameters per image more to fit them with, a difference
+// of that share of the redundancy); poses with errors of their own fit
+// them worse. Tells whether a ground truth is exact enough to rank two
+// models whose centre errors differ by less than a few tenths of the error.
+struct PoseFit {
+  int num_observations = 0;  // of points seen by two or more images with a true pose
+  double model_median_px = 0;
+  double truth_median_px = 0;
+  double model_rms_px = 0;
+  double truth_rms_px = 0;
+};
+
+// nullopt when no point has two observations in images with a true pose.
+// Intrinsics should be the true ones (a model given its calibration).
+std::optional<PoseFit> FitObservationsToPoses(
+    const Reconstruction& reconstruction,
+    const std::map<std::string, Rigid3d>& true_cam_from_world);
+
 struct TrajectoryEvaluation {
   int num_estimated = 0;
   int num_reference = 0;

@@ -24,6 +24,7 @@ PreparedFrameSource::~PreparedFrameSource() {
 
 std::optional<PreparedFrame> PreparedFrameSource::FetchAndPrepare() {
   std::optional<Frame> frame = source_->Next();
+  arrived_ = true;
   if (!frame) return std::nullopt;
   // Decoding and SIFT see the bytes from outside first: a failure there
   // (an allocation, an OpenCV assertion) is this image's, not the run's.
@@ -59,12 +60,11 @@ std::optional<PreparedFrame> PreparedFrameSource::Next() {
   if (exhausted_) return std::nullopt;
   std::optional<PreparedFrame> prepared = next_.get();
   if (prepared) {
+    arrived_ = false;
     next_ = std::async(std::launch::async, [this] { return FetchAndPrepare(); });
     if (prepared->frame.arrival != std::chrono::steady_clock::time_point()) {
-      shots_.push_back({prepared->frame.arrival,
-                        std::chrono::duration<double>(
-                            (prepared->decode_ms + prepared->features_ms) / 1000)});
-      if (shots_.size() > kCadenceFrames) shots_.pop_front();
+      arrivals_.push_back(prepared->frame.arrival);
+      if (arrivals_.size() > kCadenceFrames) arrivals_.pop_front();
     }
   } else {
     exhausted_ = true;
@@ -77,18 +77,14 @@ bool PreparedFrameSource::WaitReady(std::chrono::milliseconds timeout) const {
 }
 
 std::optional<PreparedFrameSource::Cadence> PreparedFrameSource::ShotCadence() const {
-  if (shots_.size() < 3) return std::nullopt;
+  if (arrivals_.size() < 3) return std::nullopt;
   std::vector<std::chrono::steady_clock::duration> intervals;
-  std::vector<std::chrono::duration<double>> prepares = {shots_.front().prepare};
-  for (std::size_t i = 1; i < shots_.size(); ++i) {
-    intervals.push_back(shots_[i].arrival - shots_[i - 1].arrival);
-    prepares.push_back(shots_[i].prepare);
+  for (std::size_t i = 1; i < arrivals_.size(); ++i) {
+    intervals.push_back(arrivals_[i] - arrivals_[i - 1]);
   }
   Cadence cadence;
   cadence.interval = Median(std::move(intervals));
-  cadence.next_ready =
-      shots_.back().arrival + cadence.interval +
-      std::chrono::duration_cast<std::chrono::steady_clock::duration>(Median(std::move(prepares)));
+  cadence.next_arrival = arrivals_.back() + cadence.interval;
   return cadence;
 }
 
@@ -101,20 +97,28 @@ void RefineUntilNextFrame(Engine* engine, const PreparedFrameSource& source, dou
   Clock::duration longest_unit{0};
   Clock::time_point last_poll;
   const Clock::time_point rest_until =
-      cadence ? cadence->next_ready + cadence->interval / 2 : Clock::time_point();
+      cadence ? cadence->next_arrival + cadence->interval / 2 : Clock::time_point();
   const auto no_time_left = [&](Clock::time_point now) {
-    return cadence && now < rest_until && now + longest_unit > cadence->next_ready;
+    return cadence && now < rest_until && now + longest_unit > cadence->next_arrival;
   };
   const auto should_yield = [&] {
     const Clock::time_point now = Clock::now();
     longest_unit = std::max(longest_unit, now - last_poll);
     last_poll = now;
-    return source.WaitReady() || no_time_left(now);
+    return source.Arrived() || no_time_left(now);
   };
-  while (!source.WaitReady()) {
+  // The prefetch signals a prepared frame, not an arrived one: resting polls
+  // for the arrival, which costs the frame nothing (nothing runs meanwhile).
+  const auto rest = [&](Clock::duration duration) {
+    const Clock::time_point until = Clock::now() + duration;
+    while (!source.Arrived() && Clock::now() < until) {
+      source.WaitReady(std::chrono::milliseconds(5));
+    }
+  };
+  while (!source.Arrived()) {
     const Clock::time_point start = Clock::now();
     if (no_time_left(start)) {
-      source.WaitReady(std::chrono::ceil<std::chrono::milliseconds>(rest_until - start));
+      rest(rest_until - start);
       continue;
     }
     last_poll = start;
@@ -122,8 +126,7 @@ void RefineUntilNextFrame(Engine* engine, const PreparedFrameSource& source, dou
     if (slice.step == Engine::RefinementSlice::Step::kNone) return;
     on_slice(&slice);
     const std::chrono::duration<double> worked = Clock::now() - start;
-    const double rest_s = worked.count() * (1 / share - 1);
-    if (rest_s > 0) source.WaitReady(std::chrono::milliseconds(std::llround(1000 * rest_s)));
+    rest(std::chrono::duration_cast<Clock::duration>(worked * (1 / share - 1)));
   }
 }
 

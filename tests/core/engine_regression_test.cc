@@ -141,7 +141,7 @@ Run CheckFountain(const testing::PhotoSet& fountain, const std::string& camera,
                   const std::string& label, const Engine::Options& options = Engine::Options()) {
   Run run = RunEngine(fountain.frames, camera, options);
   CHECK(run.reconstruction.NumRegisteredImages() == fountain.frames.size());
-  const PositionErrors errors = CompareCenters(run.reconstruction, fountain.centres);
+  const PositionErrors errors = CompareCenters(run.reconstruction, fountain.Centres());
   Print(label, run, fountain.frames.size(), errors, "mm", 1000);
   CHECK(errors.rmse <= 0.00281);
   return run;
@@ -242,7 +242,7 @@ TEST_CASE("Middlebury templeRing_subset19 with its K: all registered, centres wi
   const testing::PhotoSet temple = testing::TempleRing19(testing::DataDir());
   const Run run = RunEngine(temple.frames, temple.camera);
   CHECK(run.reconstruction.NumRegisteredImages() == temple.frames.size());
-  const PositionErrors errors = CompareCenters(run.reconstruction, temple.centres);
+  const PositionErrors errors = CompareCenters(run.reconstruction, temple.Centres());
   Print("templeRing 19", run, temple.frames.size(), errors, "mm", 1000);
   CHECK(errors.rmse <= 0.00142);
 }

@@ -45,6 +45,12 @@ PhotoSet WithCamera(std::string name, std::vector<Frame> frames, const Eigen::Ma
 
 }  // namespace
 
+std::map<std::string, Eigen::Vector3d> PhotoSet::Centres() const {
+  std::map<std::string, Eigen::Vector3d> centres;
+  for (const auto& [name, pose] : cam_from_world) centres[name] = ProjectionCenter(pose);
+  return centres;
+}
+
 StrechaCamera ReadStrechaCamera(const std::string& path) {
   std::ifstream in = Open(path);
   StrechaCamera camera;
@@ -89,8 +95,9 @@ PhotoSet FountainP11(const std::filesystem::path& data) {
   PhotoSet set = WithCamera("fountain-P11", ListImageFolder(dir / "images"),
                             ReadIntrinsicMatrix((dir / "images/K.txt").string()));
   for (const Frame& frame : set.frames) {
-    set.centres[frame.name] =
-        ReadStrechaCamera((dir / "gt_dense_cameras" / (frame.name + ".camera")).string()).centre;
+    set.cam_from_world[frame.name] =
+        ReadStrechaCamera((dir / "gt_dense_cameras" / (frame.name + ".camera")).string())
+            .CamFromWorld();
   }
   return set;
 }
@@ -108,7 +115,9 @@ PhotoSet TempleRing19(const std::filesystem::path& data) {
   if (cameras.empty()) throw std::runtime_error("no cameras in templeR_par.txt");
   PhotoSet set = WithCamera("templeRing_subset19", ListImageFolder(dir), cameras.front().K);
   // The ring's file has all 47 views; the subset keeps 19.
-  for (const MiddleburyCamera& camera : cameras) set.centres[camera.name] = camera.Centre();
+  for (const MiddleburyCamera& camera : cameras) {
+    set.cam_from_world[camera.name] = camera.CamFromWorld();
+  }
   return set;
 }
 

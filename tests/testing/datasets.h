@@ -13,6 +13,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
+#include "geometry/rigid3d.h"
 #include "io/sources/image_source.h"
 
 namespace flysfm::testing {
@@ -25,6 +26,10 @@ struct StrechaCamera {
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();
   int width = 0;
   int height = 0;
+
+  Rigid3d CamFromWorld() const {
+    return Rigid3d(Eigen::Matrix3d(R.transpose()), -R.transpose() * centre);
+  }
 };
 StrechaCamera ReadStrechaCamera(const std::string& path);
 
@@ -36,6 +41,7 @@ struct MiddleburyCamera {
   Eigen::Vector3d t = Eigen::Vector3d::Zero();
 
   Eigen::Vector3d Centre() const { return -R.transpose() * t; }
+  Rigid3d CamFromWorld() const { return Rigid3d(R, t); }
 };
 std::vector<MiddleburyCamera> ReadMiddleburyCameras(const std::string& par_txt);
 
@@ -44,14 +50,17 @@ Eigen::Matrix3d ReadIntrinsicMatrix(const std::string& path);
 
 // A real photo set of ../shared/data as the tests and benchmarks feed it:
 // its images, its shared camera as --camera takes it, that camera's mean
-// focal length, and the true camera centres by image name where the set has
-// poses (none for sceaux_castle).
+// focal length, and the true poses by image name where the set has them
+// (none for sceaux_castle).
 struct PhotoSet {
   std::string name;
   std::vector<Frame> frames;
   std::string camera;
   double focal_length = 0;
-  std::map<std::string, Eigen::Vector3d> centres;
+  std::map<std::string, Rigid3d> cam_from_world;
+
+  // The true camera centres by image name.
+  std::map<std::string, Eigen::Vector3d> Centres() const;
 };
 // `data` is the shared data folder (testing::DataPath's root).
 PhotoSet FountainP11(const std::filesystem::path& data);

@@ -1,0 +1,50 @@
+#pragma once
+
+// The rendered photo session of bench_photos and bench_refine: a building
+// (16 m x 12 m, 8 m high, two bays, a textured ground) and a photographer's
+// path around it, rendered by io/synthetic as JPEGs, with the exact pose of
+// every shot.
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "geometry/camera.h"
+#include "geometry/rigid3d.h"
+
+namespace flysfm {
+
+struct Shot {
+  std::string name;  // photo_NNNN.jpg, in the order of the path
+  Rigid3d cam_from_world;
+  double distance_to_building;  // to the footprint, metres
+};
+
+// The session's camera as Camera::FromString reads it: a 3:2 sensor `width`
+// pixels wide behind a 30 mm-equivalent lens (f = 30/36 of the width), the
+// principal point at the image centre.
+std::string PhotoSessionCamera(int width);
+
+// The photographer's path: loops at 1.6 m and 10 m, 1.6 m and 16 m, 4.5 m (a
+// raised position) and 12 m, the first loop again (revisits), then 3 m high
+// at 8-20 m; steps of 1-3 m, each shot aimed at the nearest part of the
+// building with the hand's jitter in distance, height, yaw, pitch and roll.
+// The first `num_photos` shots of it.
+std::vector<Shot> MakePhotoSession(int num_photos, std::uint32_t seed);
+
+// Makes `dir` hold renders of this scene version, seed, camera and
+// supersampling only: JPEGs rendered otherwise (its manifest says) are
+// removed, so that a kept folder is reused only when it matches.
+void PrepareRenderFolder(const std::filesystem::path& dir, std::uint32_t seed,
+                         const Camera& camera, int supersampling);
+
+// Renders the shots missing from `dir` as JPEGs (quality 92; OpenCV writes
+// JFIF, no EXIF, so an uncalibrated engine must guess the focal length) on
+// `num_threads` threads. Returns the render times (ms) of the photos
+// rendered now.
+std::vector<double> RenderPhotoSession(const std::vector<Shot>& shots, const Camera& camera,
+                                       std::uint32_t seed, int supersampling,
+                                       const std::filesystem::path& dir, int num_threads);
+
+}  // namespace flysfm
