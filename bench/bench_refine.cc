@@ -71,10 +71,9 @@ struct DataSet {
   fs::path image_dir;  // what COLMAP reads
   std::vector<Frame> frames;
   std::string camera;  // --camera, in the engine's pixel convention; empty: none
-  // Ground truth: camera centres by image name (photos), or a trajectory
-  // (TUM; ATE after Sim3); the photo sets' whole poses, to fit the models'
-  // observations to (FitObservationsToPoses).
-  std::map<std::string, Eigen::Vector3d> centres;
+  // Ground truth: poses by image name (photos: camera centres compared
+  // after Sim3, observations fitted to the poses), or a trajectory (TUM;
+  // ATE after Sim3).
   std::map<std::string, Rigid3d> poses;
   std::vector<StampedPose> trajectory;
   std::vector<double> intervals_s;
@@ -92,19 +91,21 @@ struct Accuracy {
 Accuracy Evaluate(const Reconstruction& model, const DataSet& set) {
   Accuracy accuracy;
   accuracy.registered = int(model.NumRegisteredImages());
-  if (!set.centres.empty()) {
-    if (const auto errors = CompareCentersByName(model, set.centres)) {
+  if (!set.poses.empty()) {
+    std::map<std::string, Eigen::Vector3d> centres;
+    for (const auto& [name, pose] : set.poses) centres[name] = ProjectionCenter(pose);
+    if (const auto errors = CompareCentersByName(model, centres)) {
       accuracy.error_m = errors->rmse;
       for (const image_t id : model.RegisteredImageIds()) {
         const Image& image = model.image(id);
-        const auto truth = set.centres.find(image.name);
-        if (truth == set.centres.end()) continue;
+        const auto truth = centres.find(image.name);
+        if (truth == centres.end()) continue;
         accuracy.centre_errors[image.name] =
             errors->reference_from_estimate * ProjectionCenter(*image.cam_from_world) -
             truth->second;
       }
     }
-    if (!set.poses.empty()) accuracy.pose_fit = FitObservationsToPoses(model, set.poses);
+    accuracy.pose_fit = FitObservationsToPoses(model, set.poses);
   } else {
     const TrajectoryEvaluation evaluation = EvaluateTrajectory(TrajectoryOf(model), set.trajectory);
     if (evaluation.ate) accuracy.error_m = evaluation.ate->rmse;
@@ -267,7 +268,6 @@ DataSet Photos(testing::PhotoSet photos, double interval_s) {
   set.image_dir = photos.frames.front().path.parent_path();
   set.frames = std::move(photos.frames);
   set.camera = std::move(photos.camera);
-  set.centres = photos.Centres();
   set.poses = std::move(photos.cam_from_world);
   set.intervals_s = {interval_s};
   return set;
@@ -308,12 +308,11 @@ DataSet Rendered(int num_photos, const fs::path& dir, double interval_s) {
     frame.path = dir / shot.name;
     frame.timestamp = double(set.frames.size());
     set.frames.push_back(frame);
-    set.centres[shot.name] = ProjectionCenter(shot.cam_from_world);
     set.poses[shot.name] = shot.cam_from_world;
   }
   // COLMAP reads the whole folder: photos of a longer run before go.
   for (const auto& entry : fs::directory_iterator(dir)) {
-    if (entry.path().extension() == ".jpg" && !set.centres.count(entry.path().filename())) {
+    if (entry.path().extension() == ".jpg" && !set.poses.count(entry.path().filename())) {
       fs::remove(entry.path());
     }
   }
@@ -472,7 +471,7 @@ int main(int argc, char** argv) {
       std::cerr << "bench_refine: " << e.what() << " (set FLYSFM_DATA or --data)\n";
       return 2;
     }
-    const bool photos = !set.centres.empty();
+    const bool photos = !set.poses.empty();
     const char* unit = photos ? "mm" : "cm";
     const double scale = photos ? 1000 : 100;
     std::optional<Accuracy> colmap_accuracy;

@@ -10,6 +10,21 @@
 #include "geometry/triangulation.h"
 
 namespace flysfm {
+namespace {
+
+double Median(std::vector<double> values) {
+  std::sort(values.begin(), values.end());
+  const std::size_t n = values.size();
+  return n % 2 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
+}
+
+double Rms(const std::vector<double>& values) {
+  double sum = 0;
+  for (const double v : values) sum += v * v;
+  return std::sqrt(sum / values.size());
+}
+
+}  // namespace
 
 std::optional<PositionErrors> ComparePositionsAfterSim3(
     const std::vector<Eigen::Vector3d>& estimated,
@@ -32,9 +47,7 @@ std::optional<PositionErrors> ComparePositionsAfterSim3(
   result.mean = sum / errors.size();
   result.rmse = std::sqrt(sum_squares / errors.size());
   result.max = *std::max_element(errors.begin(), errors.end());
-  std::sort(errors.begin(), errors.end());
-  const std::size_t n = errors.size();
-  result.median = n % 2 ? errors[n / 2] : 0.5 * (errors[n / 2 - 1] + errors[n / 2]);
+  result.median = Median(std::move(errors));
   return result;
 }
 
@@ -51,90 +64,36 @@ std::optional<PositionErrors> CompareCentersByName(
   return ComparePositionsAfterSim3(estimated, reference);
 }
 
-namespace {
-
-struct View {
-  const Camera* camera;
-  Rigid3d cam_from_world;
-  Eigen::Vector2d pixel;
-};
-
-double Median(std::vector<double> values) {
-  const auto middle = values.begin() + values.size() / 2;
-  std::nth_element(values.begin(), middle, values.end());
-  return *middle;
-}
-
-double Rms(const std::vector<double>& values) {
-  double sum = 0;
-  for (const double v : values) sum += v * v;
-  return std::sqrt(sum / values.size());
-}
-
-Eigen::Vector2d Residual(const View& view, const Eigen::Vector3d& point) {
-  return view.camera->ImgFromCam(view.cam_from_world * point) - view.pixel;
-}
-
-// The DLT's point, then Gauss-Newton on the reprojection errors (numeric
-// derivatives: a few views, a few iterations); nullopt where a view has it
-// behind the camera.
-std::optional<Eigen::Vector3d> TriangulateInPixels(const std::vector<View>& views) {
-  std::vector<Matrix3x4d> matrices;
-  std::vector<Eigen::Vector2d> normalized;
-  for (const View& view : views) {
-    matrices.push_back(view.cam_from_world.ToMatrix());
-    normalized.push_back(view.camera->CamFromImg(view.pixel));
-  }
-  std::optional<Eigen::Vector3d> point = TriangulateMultiViewPoint(matrices, normalized);
-  if (!point) return std::nullopt;
-  for (int iteration = 0; iteration < 10; ++iteration) {
-    Eigen::Matrix3d normal = Eigen::Matrix3d::Zero();
-    Eigen::Vector3d gradient = Eigen::Vector3d::Zero();
-    for (const View& view : views) {
-      if ((view.cam_from_world * *point).z() <= 0) return std::nullopt;
-      const Eigen::Vector2d residual = Residual(view, *point);
-      Eigen::Matrix<double, 2, 3> jacobian;
-      const double step = 1e-6 * std::max(1.0, point->norm());
-      for (int k = 0; k < 3; ++k) {
-        Eigen::Vector3d plus = *point, minus = *point;
-        plus[k] += step;
-        minus[k] -= step;
-        jacobian.col(k) = (Residual(view, plus) - Residual(view, minus)) / (2 * step);
-      }
-      normal += jacobian.transpose() * jacobian;
-      gradient += jacobian.transpose() * residual;
-    }
-    const Eigen::Vector3d delta = normal.ldlt().solve(-gradient);
-    if (!delta.allFinite()) return std::nullopt;
-    *point += delta;
-    if (delta.norm() < 1e-12 * std::max(1.0, point->norm())) break;
-  }
-  return point;
-}
-
-}  // namespace
-
 std::optional<PoseFit> FitObservationsToPoses(
     const Reconstruction& reconstruction,
     const std::map<std::string, Rigid3d>& true_cam_from_world) {
+  // Every observation an inlier, however far off: the DLT of them all, then
+  // Gauss-Newton on their pixel errors, whatever the angle between the rays.
+  TriangulationOptions triangulation;
+  triangulation.max_error_px = 1e9;
+  triangulation.min_tri_angle_deg = 0;
   std::vector<double> model_errors, truth_errors;
   for (const auto& [point3D_id, point3D] : reconstruction.points3D()) {
-    std::vector<View> views;
+    std::vector<TriangulationObservation> views;
     std::vector<double> own;
     for (const TrackElement& element : point3D.track) {
       const Image& image = reconstruction.image(element.image_id);
       const auto truth = true_cam_from_world.find(image.name);
       if (truth == true_cam_from_world.end()) continue;
-      views.push_back({&reconstruction.camera(image.camera_id), truth->second,
+      views.push_back({truth->second, &reconstruction.camera(image.camera_id),
                        image.points2D[element.point2D_idx].xy});
-      own.push_back(reconstruction.ReprojectionError(element.image_id, element.point2D_idx, point3D.xyz));
+      own.push_back(
+          reconstruction.ReprojectionError(element.image_id, element.point2D_idx, point3D.xyz));
     }
     if (views.size() < 2) continue;
-    const std::optional<Eigen::Vector3d> point = TriangulateInPixels(views);
-    if (!point) continue;
+    const TriangulationResult point = EstimateTriangulation(views, triangulation);
+    // A point behind one of the true cameras is no inlier there.
+    if (!point.success || point.num_inliers != int(views.size())) continue;
     for (std::size_t i = 0; i < views.size(); ++i) {
+      const TriangulationObservation& view = views[i];
       model_errors.push_back(own[i]);
-      truth_errors.push_back(Residual(views[i], *point).norm());
+      truth_errors.push_back(
+          (view.camera->ImgFromCam(view.cam_from_world * point.point) - view.pixel).norm());
     }
   }
   if (model_errors.empty()) return std::nullopt;
