@@ -7,7 +7,7 @@
 //
 //   bench_refine [--data DIR] [--sets fountain,temple,rendered,fr3,fr1,fr1nok]
 //                [--interval S] [--rendered-photos N] [--fr1-intervals S,S]
-//                [--fr1-frames N] [--repeat N] [--no-colmap] [--work DIR]
+//                [--fr1-frames N] [--repeat N] [--orders N] [--no-colmap] [--work DIR]
 //
 // "rendered" is the first --rendered-photos (40) shots of bench_photos'
 // session at 6 MP (bench/photo_session.h), rendered into --work/rendered_photos and
@@ -26,13 +26,25 @@
 // images: the median reprojection error of each model's observations with
 // its own poses and with the true ones (each point triangulated again;
 // FitObservationsToPoses). Exact poses fit as well as a model's own; the
-// rendered set shows it.
+// rendered set shows it. One more follows the model as it stood when each
+// image arrived (what the live view showed while the next photo was
+// taken), off and on: its error's median over the arrivals, and at how many
+// on was lower.
 //
 // --repeat N runs each set off then on N times: the latency figures pool the
 // repeats, the accuracy is the first's, and each image's own stages on less
 // off (paired by image and repeat) give the difference refinement makes to
 // them with a distribution-free 95 % interval: a few milliseconds between
 // two runs of a 19-image set are within what the machine itself varies.
+//
+// --orders N measures the accuracy off and on in N capture orders: as
+// captured, then shuffled as `flysfm batch --shuffle K` does, K = 1 .. N - 1.
+// An on-the-fly model depends on the order its images came in (which pair
+// starts it, which image each track's LSM template is cut from), and on the
+// photo sets its centre error varies by a factor of two or more between
+// orders: a difference between off and on in one order says little. The
+// paired differences (on less off, per order) get the median and the sign
+// test's distribution-free 95 % interval.
 
 #include <algorithm>
 #include <array>
@@ -146,6 +158,10 @@ double Percentile(std::vector<double> values, double p) {
 
 struct Run {
   Accuracy accuracy;
+  // The error of the model as it stood when each image arrived (what a live
+  // view showed the photographer while taking it), one per arrival;
+  // nullopt while it could not be compared (fewer than 3 images).
+  std::vector<std::optional<double>> live_error_m;
   std::vector<double> latency_ms;  // arrival to result, per registered image
   // Of the images registered on arrival: the time of their own stages after
   // SIFT, and the time they waited (for the image before them, or for a
@@ -164,6 +180,42 @@ std::vector<double> OwnMs(const Run& run) {
   std::vector<double> own_ms;
   for (const StageTimes& times : run.own_times) own_ms.push_back(OwnMs(times));
   return own_ms;
+}
+
+// The model's centres against the truth: its registered images' poses with
+// a true pose (photos), or its trajectory (TUM). Copied when an image
+// arrives (microseconds, for a few hundred images) and compared after the run,
+// so that measuring adds nothing to that image's latency.
+struct ModelCentres {
+  std::vector<Eigen::Vector3d> estimated, reference;  // photos
+  std::vector<StampedPose> trajectory;                 // TUM
+};
+
+ModelCentres CentresOf(const Reconstruction& model, const DataSet& set) {
+  ModelCentres centres;
+  if (set.poses.empty()) {
+    centres.trajectory = TrajectoryOf(model);
+    return centres;
+  }
+  for (const image_t id : model.RegisteredImageIds()) {
+    const Image& image = model.image(id);
+    const auto truth = set.poses.find(image.name);
+    if (truth == set.poses.end()) continue;
+    centres.estimated.push_back(ProjectionCenter(*image.cam_from_world));
+    centres.reference.push_back(ProjectionCenter(truth->second));
+  }
+  return centres;
+}
+
+std::optional<double> ErrorOf(const ModelCentres& centres, const DataSet& set) {
+  if (set.poses.empty()) {
+    const TrajectoryEvaluation evaluation = EvaluateTrajectory(centres.trajectory, set.trajectory);
+    if (!evaluation.ate) return std::nullopt;
+    return evaluation.ate->rmse;
+  }
+  const auto errors = ComparePositionsAfterSim3(centres.estimated, centres.reference);
+  if (!errors) return std::nullopt;
+  return errors->rmse;
 }
 
 Run RunPaced(const DataSet& set, bool refine, double interval_s) {
@@ -191,11 +243,13 @@ Run RunPaced(const DataSet& set, bool refine, double interval_s) {
       run.delay_ms.push_back(latency - times.total);
     }
   };
+  std::vector<ModelCentres> live;
   while (true) {
     RefineUntilNextFrame(&engine, prepared, 1.0,
                          [&](Engine::RefinementSlice* slice) { note(slice->registered, false); });
     std::optional<PreparedFrame> frame = prepared.Next();
     if (!frame) break;
+    live.push_back(CentresOf(engine.reconstruction(), set));
     arrivals[frame->frame.name] = frame->frame.arrival;
     note(engine.AddImage(std::move(*frame)), true);
   }
@@ -206,6 +260,7 @@ Run RunPaced(const DataSet& set, bool refine, double interval_s) {
   run.finish_s = std::chrono::duration<double>(end - finish_start).count();
   run.wall_s = std::chrono::duration<double>(end - start).count();
   run.accuracy = Evaluate(engine.reconstruction(), set);
+  for (const ModelCentres& centres : live) run.live_error_m.push_back(ErrorOf(centres, set));
   run.refinement = engine.refinement_totals();
   return run;
 }
@@ -400,6 +455,7 @@ int main(int argc, char** argv) {
   std::vector<double> fr1_intervals_s = {1.0 / 30, 1.0};
   int fr1_frames = 330;
   int repeat = 1;
+  int orders = 1;
   bool colmap = std::system("command -v colmap > /dev/null 2>&1") == 0;
   fs::path work = fs::temp_directory_path() / "bench_refine";
   for (int i = 1; i < argc; ++i) {
@@ -420,6 +476,8 @@ int main(int argc, char** argv) {
       fr1_frames = std::atoi(argv[++i]);
     } else if (!std::strcmp(argv[i], "--repeat") && has_value && std::atoi(argv[i + 1]) > 0) {
       repeat = std::atoi(argv[++i]);
+    } else if (!std::strcmp(argv[i], "--orders") && has_value && std::atoi(argv[i + 1]) > 0) {
+      orders = std::atoi(argv[++i]);
     } else if (!std::strcmp(argv[i], "--no-colmap")) {
       colmap = false;
     } else if (!std::strcmp(argv[i], "--work") && has_value) {
@@ -428,7 +486,7 @@ int main(int argc, char** argv) {
       std::cerr << "usage: bench_refine [--data DIR] "
                    "[--sets fountain,temple,rendered,fr3,fr1,fr1nok] [--interval S] "
                    "[--rendered-photos N] [--fr1-intervals S,S] [--fr1-frames N] [--repeat N] "
-                   "[--no-colmap] "
+                   "[--orders N] [--no-colmap] "
                    "[--work DIR]\n";
       return 2;
     }
@@ -500,6 +558,36 @@ int main(int argc, char** argv) {
         }
       }
       const std::array<double, 3> own_difference = MedianWithInterval(own_on_less_off);
+      // The error off and on in each capture order (missing where a run
+      // registered too little to be compared), the first as captured.
+      std::vector<std::optional<double>> off_errors = {off.accuracy.error_m};
+      std::vector<std::optional<double>> on_errors = {on.accuracy.error_m};
+      for (int order = 1; order < orders; ++order) {
+        DataSet shuffled = set;
+        ShuffleFrames(&shuffled.frames, std::uint32_t(order));
+        off_errors.push_back(RunPaced(shuffled, false, interval).accuracy.error_m);
+        on_errors.push_back(RunPaced(shuffled, true, interval).accuracy.error_m);
+      }
+      std::vector<double> on_less_off_by_order;
+      for (int order = 0; order < orders; ++order) {
+        if (off_errors[order] && on_errors[order]) {
+          on_less_off_by_order.push_back((*on_errors[order] - *off_errors[order]) * scale);
+        }
+      }
+      const std::array<double, 3> by_order = MedianWithInterval(on_less_off_by_order);
+      // The model as each image arrived, off and on (as captured), paired by
+      // arrival. One run's arrivals are not independent samples (each model
+      // grows from the one before), so no interval: how often on was lower.
+      std::vector<double> live_off, live_on;
+      int live_on_lower = 0;
+      for (std::size_t i = 0; i < std::min(off.live_error_m.size(), on.live_error_m.size()); ++i) {
+        const std::optional<double>& error_off = off.live_error_m[i];
+        const std::optional<double>& error_on = on.live_error_m[i];
+        if (!error_off || !error_on) continue;
+        live_off.push_back(*error_off * scale);
+        live_on.push_back(*error_on * scale);
+        live_on_lower += *error_on < *error_off;
+      }
       const auto error = [&](const std::optional<double>& error_m) {
         char text[32] = "-";
         if (error_m) std::snprintf(text, sizeof(text), "%.2f %s", *error_m * scale, unit);
@@ -541,6 +629,28 @@ int main(int argc, char** argv) {
                   own_difference[1], own_difference[2]);
       for (const double median : repeat_medians) std::printf(" %+.1f", median);
       std::printf(" |\n");
+      if (orders > 1) {
+        std::printf("|   error in %d capture orders (as captured, then shuffled): off", orders);
+        const auto print_errors = [&](const std::vector<std::optional<double>>& errors) {
+          double sum = 0;
+          int count = 0;
+          for (const auto& error_m : errors) {
+            std::printf(" %s", error(error_m).c_str());
+            if (error_m) sum += *error_m, ++count;
+          }
+          if (count > 0) std::printf(" (mean %.2f %s)", sum / count * scale, unit);
+        };
+        print_errors(off_errors);
+        std::printf("; on");
+        print_errors(on_errors);
+        std::printf("; on less off, paired by order: median %+.2f %s, 95 %% interval [%+.2f, "
+                    "%+.2f] |\n",
+                    by_order[0], unit, by_order[1], by_order[2]);
+      }
+      std::printf("|   the model as each image arrived, error median over the %zu arrivals with 3 "
+                  "images or more in both: off %.2f %s, on %.2f %s; on lower at %d |\n",
+                  live_off.size(), Percentile(live_off, 0.5), unit, Percentile(live_on, 0.5),
+                  unit, live_on_lower);
       std::optional<SharedError> shared;
       if (colmap_accuracy) shared = CompareErrors(on.accuracy, *colmap_accuracy);
       if (shared) {
@@ -580,6 +690,23 @@ int main(int argc, char** argv) {
                               {"true_median_px", fit->truth_median_px}};
       };
       if (on.accuracy.pose_fit) entry["on"]["pose_fit"] = fit_json(on.accuracy.pose_fit);
+      entry["live"] = {{"arrivals", live_off.size()},
+                       {std::string("off_median_") + unit, Percentile(live_off, 0.5)},
+                       {std::string("on_median_") + unit, Percentile(live_on, 0.5)},
+                       {"on_lower", live_on_lower}};
+      if (orders > 1) {
+        const auto errors_json = [&](const std::vector<std::optional<double>>& errors) {
+          nlohmann::json values = nlohmann::json::array();
+          for (const auto& error_m : errors) {
+            values.push_back(error_m ? nlohmann::json(*error_m * scale) : nullptr);
+          }
+          return values;
+        };
+        entry["orders"] = {{std::string("off_") + unit, errors_json(off_errors)},
+                           {std::string("on_") + unit, errors_json(on_errors)},
+                           {"on_less_off",
+                            {{"median", by_order[0]}, {"interval95", {by_order[1], by_order[2]}}}}};
+      }
       if (colmap_accuracy) {
         entry["colmap"] = {{"registered", colmap_accuracy->registered},
                            {std::string("error_") + unit,

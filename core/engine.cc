@@ -51,6 +51,7 @@ bool Engine::Options::Check(std::string* problem) const {
       {global_ba.Check(), "global_ba"},
       {final_outlier_quantile >= 0 && final_outlier_quantile < 1,
        "final_outlier_quantile (in [0, 1))"},
+      {final_outlier_max_rounds >= 1, "final_outlier_max_rounds (>= 1)"},
       {filter_max_error_px > 0, "filter_max_error_px (> 0)"},
       {filter_min_tri_angle_deg >= 0, "filter_min_tri_angle_deg (>= 0)"},
       {unknown_focal_factor > 0, "unknown_focal_factor (> 0)"},
@@ -514,7 +515,8 @@ std::vector<ImageResult> Engine::Finish() {
     reconstruction_.FilterAllPoints3D(options_.filter_max_error_px,
                                       options_.filter_min_tri_angle_deg);
     if (options_.final_outlier_quantile > 0) {
-      SnoopOutliers(options_.final_outlier_quantile, options_.global_ba,
+      SnoopOutliers(options_.final_outlier_quantile, options_.final_outlier_max_rounds,
+                    options_.global_ba,
                     options_.filter_min_tri_angle_deg, &reconstruction_);
     }
   }

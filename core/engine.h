@@ -109,6 +109,12 @@ class Engine {
     // (observations measured less well than the rest) that a BA with one
     // weight treats alike with the good ones. docs/engine.md, step 11.
     double final_outlier_quantile = 0.99;
+    // The snooping's adjustments at most (SnoopOutliers): they end once none
+    // leaves an observation beyond its bound, after 3-5 on the photo sets
+    // and rendered sessions measured (docs/engine.md, step 11); the bound
+    // holds Finish's cost on a long session to a few global BAs, each
+    // starting near its optimum.
+    int final_outlier_max_rounds = 10;
 
     // After each BA: observations farther than this from their projection are
     // dropped, then points seen under less than the angle.

@@ -175,7 +175,7 @@ SceneBundleResult AdjustGlobalBundle(const BundleAdjuster::Options& options,
   return Adjust(weights, options, 0, reconstruction);
 }
 
-OutlierSnooping SnoopOutliers(double quantile, BundleAdjuster::Options options,
+OutlierSnooping SnoopOutliers(double quantile, int max_rounds, BundleAdjuster::Options options,
                               double min_angle_deg, Reconstruction* reconstruction) {
   std::unordered_map<image_t, std::vector<double>> errors;
   for (const auto& [id, point] : reconstruction->points3D()) {
@@ -194,15 +194,18 @@ OutlierSnooping SnoopOutliers(double quantile, BundleAdjuster::Options options,
     snooping.max_error_px[image_id] = *median * quantile_over_median;
   }
   snooping.num_removed = reconstruction->FilterAllPoints3D(snooping.max_error_px, min_angle_deg);
-  if (snooping.num_removed == 0) return snooping;
   options.refine_focal_length = false;
   options.refine_principal_point = false;
   options.refine_extra_params = false;
   options.refine_readout_time = false;
-  snooping.summary = AdjustGlobalBundle(options, reconstruction).summary;
-  // The adjustment moves every error a little; none is left beyond its bound.
-  snooping.num_removed +=
-      reconstruction->FilterAllPoints3D(snooping.max_error_px, min_angle_deg);
+  std::size_t removed = snooping.num_removed;
+  while (removed > 0 && snooping.num_rounds < max_rounds) {
+    snooping.summary = AdjustGlobalBundle(options, reconstruction).summary;
+    ++snooping.num_rounds;
+    if (!snooping.summary.IsSolutionUsable()) break;
+    removed = reconstruction->FilterAllPoints3D(snooping.max_error_px, min_angle_deg);
+    snooping.num_removed += removed;
+  }
   return snooping;
 }
 

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <random>
 #include <set>
 #include <vector>
@@ -361,81 +362,137 @@ double CentreRmse(const testing::SyntheticScene& scene, const Reconstruction& re
 
 // Observations of two precisions, as LSM leaves them: most sharpened at full
 // resolution (0.15 px), a quarter where only a coarse level held (0.6 px),
-// and 2 % of blunders of 2.5 - 3.5 px, under the engine's 4 px filter. All
-// enter the BA with one weight; the snooping keeps those measured at each
-// image's own precision.
-TEST_CASE("Snooping keeps the observations measured at each image's precision") {
+// and 2 % of blunders of 2.5 - 3.5 px, under the engine's 4 px filter.
+struct MixedPrecisionScene {
+  testing::SyntheticScene scene;
+  Reconstruction truth;
+  Reconstruction noisy;
+  std::set<std::pair<image_t, point2D_t>> precise;
+  std::set<std::pair<image_t, point2D_t>> blunders;
+};
+
+MixedPrecisionScene MakeMixedPrecisionScene(std::uint32_t seed) {
   testing::GroundPathSceneOptions scene_options;
   scene_options.num_images = 40;
   scene_options.images_per_strip = 20;
-  scene_options.seed = 5;
-  const testing::SyntheticScene scene = testing::MakeGroundPathScene(scene_options);
-  const Reconstruction truth = testing::ReconstructionFromScene(scene).reconstruction;
-  Reconstruction all = truth;
-  std::mt19937 rng(6);
+  scene_options.seed = seed;
+  MixedPrecisionScene mixed;
+  mixed.scene = testing::MakeGroundPathScene(scene_options);
+  mixed.truth = testing::ReconstructionFromScene(mixed.scene).reconstruction;
+  mixed.noisy = mixed.truth;
+  std::mt19937 rng(seed + 1);
   std::uniform_real_distribution<double> unit(0, 1);
   std::normal_distribution<double> normal(0, 1);
-  std::set<std::pair<image_t, point2D_t>> precise;
-  std::set<std::pair<image_t, point2D_t>> blunders;
-  for (const auto& [id, point] : truth.points3D()) {
+  for (const auto& [id, point] : mixed.truth.points3D()) {
     for (const TrackElement& element : point.track) {
-      Eigen::Vector2d& xy = all.image(element.image_id).points2D[element.point2D_idx].xy;
+      Eigen::Vector2d& xy = mixed.noisy.image(element.image_id).points2D[element.point2D_idx].xy;
       const double kind = unit(rng);
       if (kind < 0.02) {
         const double angle = 2 * M_PI * unit(rng);
         xy += (2.5 + unit(rng)) * Eigen::Vector2d(std::cos(angle), std::sin(angle));
-        blunders.insert({element.image_id, element.point2D_idx});
+        mixed.blunders.insert({element.image_id, element.point2D_idx});
       } else {
         const double sigma = kind < 0.27 ? 0.6 : 0.15;
         xy += sigma * Eigen::Vector2d(normal(rng), normal(rng));
-        if (sigma < 0.5) precise.insert({element.image_id, element.point2D_idx});
+        if (sigma < 0.5) mixed.precise.insert({element.image_id, element.point2D_idx});
       }
     }
   }
-  // What the snooping aims at: a BA that knew which observations were precise.
-  Reconstruction oracle = all;
-  for (const auto& [id, point] : truth.points3D()) {
-    for (const TrackElement& element : point.track) {
-      if (!precise.count({element.image_id, element.point2D_idx}) &&
-          oracle.image(element.image_id).points2D[element.point2D_idx].HasPoint3D()) {
-        oracle.DeleteObservation(element.image_id, element.point2D_idx);
-      }
-    }
-  }
-  const BundleAdjuster::Options options;
-  REQUIRE(AdjustGlobalBundle(options, &oracle).summary.IsSolutionUsable());
-  REQUIRE(AdjustGlobalBundle(options, &all).summary.IsSolutionUsable());
-  Reconstruction snooped = all;
-  const OutlierSnooping snooping = SnoopOutliers(0.99, options, 0, &snooped);
-  REQUIRE(snooping.summary.IsSolutionUsable());
-  CHECK(snooping.max_error_px.size() == 40);
+  return mixed;
+}
 
-  std::size_t blunders_kept = 0;
-  for (const auto& [image_id, point2D_idx] : blunders) {
-    blunders_kept += snooped.image(image_id).points2D[point2D_idx].HasPoint3D();
-  }
-  std::size_t precise_kept = 0;
-  for (const auto& [image_id, point2D_idx] : precise) {
-    precise_kept += snooped.image(image_id).points2D[point2D_idx].HasPoint3D();
+// All observations enter the BA with one weight; the snooping keeps those
+// measured at each image's own precision. A scene's centre error is one
+// sample of a spread about what least squares predicts (ratios of 0.68 to
+// 0.94 below, over scenes): the figures are checked over eight scenes.
+TEST_CASE("Snooping keeps the observations measured at each image's precision") {
+  const BundleAdjuster::Options options;
+  std::size_t blunders = 0, blunders_kept = 0, precise = 0, precise_kept = 0;
+  double all_over_oracle = 0, snooped_over_all = 0;
+  const int num_scenes = 8;
+  for (int seed = 5; seed < 5 + num_scenes; ++seed) {
+    const MixedPrecisionScene mixed = MakeMixedPrecisionScene(std::uint32_t(seed));
+    // What the snooping aims at: a BA that knew which observations were precise.
+    Reconstruction oracle = mixed.noisy;
+    for (const auto& [id, point] : mixed.truth.points3D()) {
+      for (const TrackElement& element : point.track) {
+        if (!mixed.precise.count({element.image_id, element.point2D_idx}) &&
+            oracle.image(element.image_id).points2D[element.point2D_idx].HasPoint3D()) {
+          oracle.DeleteObservation(element.image_id, element.point2D_idx);
+        }
+      }
+    }
+    Reconstruction all = mixed.noisy;
+    REQUIRE(AdjustGlobalBundle(options, &oracle).summary.IsSolutionUsable());
+    REQUIRE(AdjustGlobalBundle(options, &all).summary.IsSolutionUsable());
+    Reconstruction snooped = all;
+    const OutlierSnooping snooping = SnoopOutliers(0.99, 10, options, 0, &snooped);
+    REQUIRE(snooping.summary.IsSolutionUsable());
+    CHECK(snooping.max_error_px.size() == 40);
+    blunders += mixed.blunders.size();
+    for (const auto& [image_id, point2D_idx] : mixed.blunders) {
+      blunders_kept += snooped.image(image_id).points2D[point2D_idx].HasPoint3D();
+    }
+    precise += mixed.precise.size();
+    for (const auto& [image_id, point2D_idx] : mixed.precise) {
+      precise_kept += snooped.image(image_id).points2D[point2D_idx].HasPoint3D();
+    }
+    const double all_rmse = CentreRmse(mixed.scene, all);
+    all_over_oracle += all_rmse / CentreRmse(mixed.scene, oracle) / num_scenes;
+    snooped_over_all += CentreRmse(mixed.scene, snooped) / all_rmse / num_scenes;
   }
   // A blunder along a two-view track's epipolar line moves the point, not
   // the error: nothing can show it.
-  INFO(blunders_kept << " of " << blunders.size() << " blunders kept");
-  CHECK(double(blunders_kept) <= 0.03 * double(blunders.size()));
+  INFO(blunders_kept << " of " << blunders << " blunders kept");
+  CHECK(double(blunders_kept) <= 0.03 * double(blunders));
   // Within a precision, the 0.99 quantile: about 1 % of the precise go (the
   // median, pulled up a little by the coarse ones, loosens the bound).
-  CHECK(double(precise_kept) >= 0.97 * double(precise.size()));
-  const double all_rmse = CentreRmse(scene, all);
-  const double snooped_rmse = CentreRmse(scene, snooped);
-  const double oracle_rmse = CentreRmse(scene, oracle);
-  INFO("centre RMSE: all " << all_rmse << ", snooped " << snooped_rmse << ", oracle "
-                           << oracle_rmse);
+  CHECK(double(precise_kept) >= 0.97 * double(precise));
+  INFO("centre RMSE, mean ratios: all / oracle " << all_over_oracle << ", snooped / all "
+                                                 << snooped_over_all);
   // Least squares with one weight has a variance of mean(sigma^2) / n: all
   // observations (0.75 0.15^2 + 0.25 0.6^2) / n, 1.9 times the oracle's
   // error; kept within 2.58 x the median (about 0.49 px), 28 % of the coarse
-  // ones remain, 1.45 times the oracle's error.
-  CHECK(all_rmse >= 1.5 * oracle_rmse);
-  CHECK(snooped_rmse <= 0.85 * all_rmse);
+  // ones remain, 1.45 times the oracle's error: 0.76 times all's.
+  CHECK(all_over_oracle >= 1.5);
+  CHECK(snooped_over_all <= 0.85);
+}
+
+// The cost another global BA still takes off a snooped model, relative: at
+// the optimum of what it holds, no more than the solver's own stopping rule
+// leaves (an iteration gaining under function_tolerance ends it; ten such).
+double CostLeft(const Reconstruction& snooped, const BundleAdjuster::Options& options) {
+  Reconstruction again = snooped;
+  const BundleAdjuster::Summary summary = AdjustGlobalBundle(options, &again).summary;
+  REQUIRE(summary.IsSolutionUsable());
+  return (summary.initial_cost - summary.final_cost) / summary.initial_cost;
+}
+
+TEST_CASE("Snooping ends at the optimum of what it keeps, with nothing beyond its bound") {
+  MixedPrecisionScene mixed = MakeMixedPrecisionScene(5);
+  const BundleAdjuster::Options options;
+  REQUIRE(AdjustGlobalBundle(options, &mixed.noisy).summary.IsSolutionUsable());
+  Reconstruction snooped = mixed.noisy;
+  const OutlierSnooping snooping = SnoopOutliers(0.99, 10, options, 0, &snooped);
+  REQUIRE(snooping.summary.IsSolutionUsable());
+  // The first adjustment without the dropped observations moves the errors
+  // of others past their bound: one round is not enough, and a few are.
+  CHECK(snooping.num_rounds >= 2);
+  CHECK(snooping.num_rounds < 10);
+  std::size_t beyond = 0;
+  for (const auto& [id, point] : snooped.points3D()) {
+    for (const TrackElement& element : point.track) {
+      beyond += snooped.ReprojectionError(element.image_id, element.point2D_idx, point.xyz) >
+                snooping.max_error_px.at(element.image_id);
+    }
+  }
+  CHECK(beyond == 0);
+  const double tolerance = 10 * options.function_tolerance;
+  CHECK(CostLeft(snooped, options) <= tolerance);
+  // Stopped after its first adjustment, the model still had cost to lose.
+  Reconstruction once = mixed.noisy;
+  REQUIRE(SnoopOutliers(0.99, 1, options, 0, &once).num_rounds == 1);
+  CHECK(CostLeft(once, options) > tolerance);
 }
 
 }  // namespace
