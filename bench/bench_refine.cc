@@ -69,6 +69,7 @@
 #include "io/evaluation/evaluation.h"
 #include "io/formats/colmap_model.h"
 #include "io/formats/trajectory.h"
+#include "io/run/run_writer.h"
 #include "io/sources/image_source.h"
 #include "io/sources/prepared_source.h"
 #include "tests/testing/datasets.h"
@@ -432,13 +433,7 @@ nlohmann::json ToJson(const Run& run, const char* unit, double scale) {
           {"own_stage_median_ms", own_stages},
           {"delay_ms",
            {{"median", Percentile(run.delay_ms, 0.5)}, {"p95", Percentile(run.delay_ms, 0.95)}}},
-          {"refinement",
-           {{"slices", run.refinement.num_slices},
-            {"pairs_tried", run.refinement.num_pairs_tried},
-            {"pairs_verified", run.refinement.num_pairs_verified},
-            {"pairs_linked", run.refinement.num_pairs_linked},
-            {"global_bas", run.refinement.num_global_bas},
-            {"ms", run.refinement.ms}}},
+          {"refinement", ToJson(run.refinement)},
           {"finish_s", run.finish_s},
           {"wall_s", run.wall_s}};
 }

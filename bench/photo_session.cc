@@ -183,9 +183,10 @@ std::vector<double> RenderPhotoSession(const std::vector<Shot>& shots, const Cam
   const TexturedScene scene = MakeBuilding(seed);
   std::size_t texels = 0;
   for (const TexturedFacet& facet : scene.facets) texels += facet.texture.total();
-  std::printf("scene: %zu facets, %.0f MB of textures, made in %.1f s\n", scene.facets.size(),
-              texels * sizeof(float) / 1048576.0, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
-  std::fflush(stdout);
+  // Progress, on stderr: a benchmark's stdout is its table.
+  std::fprintf(stderr, "scene: %zu facets, %.0f MB of textures, made in %.1f s\n",
+               scene.facets.size(), texels * sizeof(float) / 1048576.0,
+               std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
   std::vector<double> times(missing.size());
   const auto work = [&](int thread) {
     for (std::size_t k = thread; k < missing.size(); k += num_threads) {

@@ -20,9 +20,10 @@ const std::vector<EngineAblation>& EngineAblations() {
        "Ablation: new images continue and start tracks, but no track is completed "
        "with other images' matches or merged with another",
        [](Engine::Options* o) { o->triangulation.complete_and_merge_tracks = false; }},
-      {"no final snooping", "--no-final-snooping",
-       "Ablation: Finish's global BA keeps every observation within the 4 px filter",
-       [](Engine::Options* o) { o->final_outlier_quantile = 0; }},
+      {"no snooping", "--no-snooping",
+       "Ablation: no data snooping, between shots nor in Finish; the model keeps every "
+       "observation within the 4 px filter",
+       [](Engine::Options* o) { o->outlier_quantile = 0; }},
   };
   return kAblations;
 }

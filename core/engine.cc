@@ -49,9 +49,9 @@ bool Engine::Options::Check(std::string* problem) const {
       {local_ba.Check(), "local_ba"},
       {ba_max_constant_observers >= 0, "ba_max_constant_observers (>= 0)"},
       {global_ba.Check(), "global_ba"},
-      {final_outlier_quantile >= 0 && final_outlier_quantile < 1,
-       "final_outlier_quantile (in [0, 1))"},
-      {final_outlier_max_rounds >= 1, "final_outlier_max_rounds (>= 1)"},
+      {outlier_quantile >= 0 && outlier_quantile < 1,
+       "outlier_quantile (in [0, 1))"},
+      {outlier_max_rounds >= 1, "outlier_max_rounds (>= 1)"},
       {filter_max_error_px > 0, "filter_max_error_px (> 0)"},
       {filter_min_tri_angle_deg >= 0, "filter_min_tri_angle_deg (>= 0)"},
       {unknown_focal_factor > 0, "unknown_focal_factor (> 0)"},
@@ -514,10 +514,9 @@ std::vector<ImageResult> Engine::Finish() {
     AdjustGlobalBundle(options_.global_ba, &reconstruction_);
     reconstruction_.FilterAllPoints3D(options_.filter_max_error_px,
                                       options_.filter_min_tri_angle_deg);
-    if (options_.final_outlier_quantile > 0) {
-      SnoopOutliers(options_.final_outlier_quantile, options_.final_outlier_max_rounds,
-                    options_.global_ba,
-                    options_.filter_min_tri_angle_deg, &reconstruction_);
+    if (options_.outlier_quantile > 0) {
+      SnoopOutliers(options_.outlier_quantile, options_.outlier_max_rounds,
+                    options_.global_ba, options_.filter_min_tri_angle_deg, &reconstruction_);
     }
   }
   reconstruction_.UpdatePointErrors();

@@ -32,6 +32,7 @@
 #include "core/pending_pool.h"
 #include "core/reconstruction.h"
 #include "core/registration.h"
+#include "core/scene_bundle.h"
 #include "core/triangulator.h"
 #include "matching/features.h"
 #include "matching/image_decode.h"
@@ -101,20 +102,21 @@ class Engine {
       options.refine_readout_time = true;
       return options;
     }();
-    // Finish's global BA ends with data snooping (SnoopOutliers; 0: none):
-    // each image's observations beyond this quantile of its own noise go,
-    // and the poses and points are adjusted again. The 4 px filter below is
-    // the on-the-fly model's, whose noise is not yet known; a finished
-    // model's errors are a tenth or two of a pixel with a heavy tail
-    // (observations measured less well than the rest) that a BA with one
-    // weight treats alike with the good ones. docs/engine.md, step 11.
-    double final_outlier_quantile = 0.99;
+    // Data snooping (SnoopOutliers; 0: none) ends Finish's global BA, and
+    // each round of refinement between shots: each image's observations
+    // beyond this quantile of its own noise go, and the poses and points are
+    // adjusted again. The 4 px filter below is the on-the-fly model's, whose
+    // noise is not yet known; an adjusted model's errors are a tenth or two
+    // of a pixel with a heavy tail (observations measured less well than the
+    // rest) that a BA with one weight treats alike with the good ones.
+    // docs/engine.md, step 11 and "Refinement between shots".
+    double outlier_quantile = 0.99;
     // The snooping's adjustments at most (SnoopOutliers): they end once none
     // leaves an observation beyond its bound, after 3-5 on the photo sets
     // and rendered sessions measured (docs/engine.md, step 11); the bound
-    // holds Finish's cost on a long session to a few global BAs, each
-    // starting near its optimum.
-    int final_outlier_max_rounds = 10;
+    // holds a snooping's cost on a long session to a few BAs, each starting
+    // near its optimum.
+    int outlier_max_rounds = 10;
 
     // After each BA: observations farther than this from their projection are
     // dropped, then points seen under less than the angle.
@@ -232,13 +234,16 @@ class Engine {
   //   kAdjust: a global BA (beyond refinement.max_adjusted_observations,
   //     one of the images registered last) when the model changed since the
   //     last one, and a filter of every point;
-  //   kRetriangulate: every registered image's tracks again.
+  //   kRetriangulate: every registered image's tracks again;
+  //   kSnoop: once BA and retriangulation are done, data snooping
+  //     (SnoopOutliers) over the images that BA adjusts, unless guessed
+  //     intrinsics are still converging.
   // kNone: nothing to do until the next image. `should_yield` is polled
   // between pairs, images and BA iterations; when it turns true the slice
   // ends early (an unfinished BA is run again later). Without it, the
   // sequence of slices depends only on the images given.
   struct RefinementSlice {
-    enum class Step { kNone, kMatch, kTriangulate, kAdjust, kRetriangulate };
+    enum class Step { kNone, kMatch, kTriangulate, kAdjust, kRetriangulate, kSnoop };
     Step step = Step::kNone;
     int num_pairs_tried = 0;
     int num_pairs_verified = 0;
@@ -248,6 +253,7 @@ class Engine {
     Triangulator::Summary triangulation;
     bool global_ba = false;
     BundleAdjuster::Summary ba;
+    OutlierSnooping snooping;
     // Waiting images that registered in this slice.
     std::vector<ImageResult> registered;
   };
@@ -262,6 +268,7 @@ class Engine {
     int num_pairs_verified = 0;
     int num_pairs_linked = 0;
     int num_global_bas = 0;
+    std::size_t num_snooped = 0;  // observations the snooping dropped
     double ms = 0;
   };
   const RefinementTotals& refinement_totals() const { return refinement_.totals; }
@@ -341,7 +348,12 @@ class Engine {
   void MatchMorePairs(const std::function<bool()>& should_yield, RefinementSlice* slice);
   void TriangulateQueued(std::deque<image_t>* images, const std::function<bool()>& should_yield,
                          RefinementSlice* slice);
+  // The images refinement's BAs and snooping adjust (weight 1): all while
+  // the model holds at most refinement.max_adjusted_observations or guessed
+  // intrinsics converge, else the images registered last.
+  std::unordered_map<image_t, double> RefinementWindow() const;
   void AdjustEverything(const std::function<bool()>& should_yield, RefinementSlice* slice);
+  void SnoopEverything(const std::function<bool()>& should_yield, RefinementSlice* slice);
   int NumRegisteredNeighbours(image_t image_id) const;
   std::vector<int> RetrievalNeighbours(image_t image_id, int n) const;
   ImageResult ResultFor(image_t image_id) const;
@@ -389,6 +401,8 @@ class Engine {
     std::deque<image_t> to_retriangulate;
     std::size_t observations_after_adjust = 0;
     int merged_since_adjust = 0;
+    // A BA completed since the last snooping.
+    bool snoop = false;
     RefinementTotals totals;
   };
   RefinementState refinement_;

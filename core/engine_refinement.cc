@@ -56,6 +56,9 @@ Engine::RefinementSlice Engine::Refine(const std::function<bool()>& should_yield
       state.adjust = changed > options_.refinement.min_changed_observations *
                                    double(std::max<std::size_t>(observations, 1));
     }
+  } else if (state.snoop) {
+    slice.step = RefinementSlice::Step::kSnoop;
+    SnoopEverything(should_yield, &slice);
   }
   for (ImageResult& result : slice.registered) Finalize(&result);
   if (slice.step != RefinementSlice::Step::kNone) {
@@ -65,6 +68,7 @@ Engine::RefinementSlice Engine::Refine(const std::function<bool()>& should_yield
     totals.num_pairs_verified += slice.num_pairs_verified;
     totals.num_pairs_linked += slice.num_pairs_linked;
     totals.num_global_bas += slice.global_ba;
+    totals.num_snooped += slice.snooping.num_removed;
     totals.ms +=
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
             .count();
@@ -140,6 +144,19 @@ void Engine::TriangulateQueued(std::deque<image_t>* images,
   }
 }
 
+std::unordered_map<image_t, double> Engine::RefinementWindow() const {
+  const std::vector<image_t>& registered = reconstruction_.RegisteredImageIds();
+  const auto budget = std::size_t(options_.refinement.max_adjusted_observations);
+  std::unordered_map<image_t, double> weights;
+  std::size_t observations = 0;
+  for (auto image = registered.rbegin(); image != registered.rend(); ++image) {
+    observations += reconstruction_.image(*image).num_points3D;
+    if (weights.size() >= 2 && observations > budget && self_calibrating_.empty()) break;
+    weights[*image] = 1.0;
+  }
+  return weights;
+}
+
 void Engine::AdjustEverything(const std::function<bool()>& should_yield,
                               RefinementSlice* slice) {
   RefinementState& state = refinement_;
@@ -147,19 +164,10 @@ void Engine::AdjustEverything(const std::function<bool()>& should_yield,
   options.should_stop = should_yield;
   slice->global_ba = true;
   const std::vector<image_t>& registered = reconstruction_.RegisteredImageIds();
-  // The images registered last, as many as hold the observation budget (two
-  // at least); all of them: a global BA.
-  const auto budget = std::size_t(options_.refinement.max_adjusted_observations);
-  std::size_t num_adjusted = 0;
-  for (std::size_t observations = 0; num_adjusted < registered.size(); ++num_adjusted) {
-    observations += reconstruction_.image(registered.rbegin()[num_adjusted]).num_points3D;
-    if (num_adjusted >= 2 && observations > budget) break;
-  }
-  if (num_adjusted == registered.size() || !self_calibrating_.empty()) {
+  const std::unordered_map<image_t, double> weights = RefinementWindow();
+  if (weights.size() == registered.size()) {
     slice->ba = AdjustGlobalBundle(options, &reconstruction_).summary;
   } else {
-    std::unordered_map<image_t, double> weights;
-    for (std::size_t i = 0; i < num_adjusted; ++i) weights[registered.rbegin()[i]] = 1.0;
     // Intrinsics that converged (or were given) stay as they are in a block
     // held by the rest of the model.
     options.refine_focal_length = false;
@@ -175,6 +183,9 @@ void Engine::AdjustEverything(const std::function<bool()>& should_yield,
   if (should_yield && should_yield()) return;
   state.adjust = false;
   ++state.num_adjustments;
+  // Guessed intrinsics that still move would follow the errors the
+  // snooping leaves (SnoopOutliers).
+  state.snoop = options_.outlier_quantile > 0 && self_calibrating_.empty();
   // A retriangulation that new images interrupted goes on where it stopped,
   // round the model: in a long session every image gets its turn.
   auto first = registered.begin();
@@ -186,6 +197,20 @@ void Engine::AdjustEverything(const std::function<bool()>& should_yield,
   state.to_retriangulate.insert(state.to_retriangulate.end(), registered.begin(), first);
   state.observations_after_adjust = reconstruction_.NumObservations();
   state.merged_since_adjust = 0;
+}
+
+void Engine::SnoopEverything(const std::function<bool()>& should_yield,
+                             RefinementSlice* slice) {
+  BundleAdjuster::Options options = options_.global_ba;
+  options.should_stop = should_yield;
+  const std::unordered_map<image_t, double> weights = RefinementWindow();
+  const bool global = weights.size() == reconstruction_.NumRegisteredImages();
+  slice->snooping = SnoopOutliers(weights, global ? 0 : options_.ba_max_constant_observers,
+                                  options_.outlier_quantile, options_.outlier_max_rounds,
+                                  options, options_.filter_min_tri_angle_deg, &reconstruction_);
+  // One that gave way to a new image runs again once that image is in.
+  if (should_yield && should_yield()) return;
+  refinement_.snoop = false;
 }
 
 std::vector<ImageResult> Engine::RetryWaiting() {

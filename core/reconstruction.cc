@@ -248,10 +248,11 @@ std::size_t Reconstruction::FilterAllPoints3D(double max_error_px,
   return FilterPoints3D(Point3DIds(), max_error_px, min_angle_deg);
 }
 
-std::size_t Reconstruction::FilterAllPoints3D(
+std::size_t Reconstruction::FilterPoints3D(
+    const std::vector<point3D_t>& point3D_ids,
     const std::unordered_map<image_t, double>& max_error_px, double min_angle_deg) {
   return FilterPoints3D(
-      Point3DIds(),
+      point3D_ids,
       [&max_error_px](image_t image_id) {
         const auto bound = max_error_px.find(image_id);
         return bound == max_error_px.end() ? std::numeric_limits<double>::infinity()

@@ -107,10 +107,11 @@ class Reconstruction {
   std::size_t FilterPoints3D(const std::vector<point3D_t>& point3D_ids,
                              double max_error_px, double min_angle_deg);
   std::size_t FilterAllPoints3D(double max_error_px, double min_angle_deg);
-  // The same over every point, each observation against its own image's
-  // bound (an image without one: no bound).
-  std::size_t FilterAllPoints3D(const std::unordered_map<image_t, double>& max_error_px,
-                                double min_angle_deg);
+  // The same, each observation against its own image's bound (an image
+  // without one: no bound).
+  std::size_t FilterPoints3D(const std::vector<point3D_t>& point3D_ids,
+                             const std::unordered_map<image_t, double>& max_error_px,
+                             double min_angle_deg);
   // Recomputes Point3D::error for every point.
   void UpdatePointErrors();
 

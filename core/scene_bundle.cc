@@ -175,38 +175,71 @@ SceneBundleResult AdjustGlobalBundle(const BundleAdjuster::Options& options,
   return Adjust(weights, options, 0, reconstruction);
 }
 
-OutlierSnooping SnoopOutliers(double quantile, int max_rounds, BundleAdjuster::Options options,
-                              double min_angle_deg, Reconstruction* reconstruction) {
-  std::unordered_map<image_t, std::vector<double>> errors;
-  for (const auto& [id, point] : reconstruction->points3D()) {
-    for (const TrackElement& element : point.track) {
-      errors[element.image_id].push_back(
-          reconstruction->ReprojectionError(element.image_id, element.point2D_idx, point.xyz));
-    }
-  }
+OutlierSnooping SnoopOutliers(const std::unordered_map<image_t, double>& weights,
+                              int max_constant_observers, double quantile, int max_rounds,
+                              BundleAdjuster::Options options, double min_angle_deg,
+                              Reconstruction* reconstruction) {
   // The quantile's error over the median error: sqrt(-2 ln(1 - q)) sigma
   // over sqrt(2 ln 2) sigma.
   const double quantile_over_median = std::sqrt(std::log(1 - quantile) / std::log(0.5));
   OutlierSnooping snooping;
-  for (auto& [image_id, image_errors] : errors) {
-    const auto median = image_errors.begin() + std::ptrdiff_t(image_errors.size() / 2);
-    std::nth_element(image_errors.begin(), median, image_errors.end());
+  // The points the judged images observe: the only ones a drop concerns.
+  const auto judged_points = [&snooping, reconstruction] {
+    std::vector<point3D_t> points;
+    for (const auto& [image_id, bound] : snooping.max_error_px) {
+      for (const Point2D& point2D : reconstruction->image(image_id).points2D) {
+        if (point2D.HasPoint3D()) points.push_back(point2D.point3D_id);
+      }
+    }
+    std::sort(points.begin(), points.end());
+    points.erase(std::unique(points.begin(), points.end()), points.end());
+    return points;
+  };
+  for (const auto& [image_id, weight] : weights) {
+    if (!std::isfinite(weight)) continue;
+    const Image& image = reconstruction->image(image_id);
+    std::vector<double> errors;
+    errors.reserve(std::size_t(image.num_points3D));
+    for (point2D_t idx = 0; idx < image.points2D.size(); ++idx) {
+      const Point2D& point2D = image.points2D[idx];
+      if (!point2D.HasPoint3D()) continue;
+      errors.push_back(reconstruction->ReprojectionError(
+          image_id, idx, reconstruction->point3D(point2D.point3D_id).xyz));
+    }
+    if (errors.empty()) continue;
+    const auto median = errors.begin() + std::ptrdiff_t(errors.size() / 2);
+    std::nth_element(errors.begin(), median, errors.end());
     snooping.max_error_px[image_id] = *median * quantile_over_median;
   }
-  snooping.num_removed = reconstruction->FilterAllPoints3D(snooping.max_error_px, min_angle_deg);
+  snooping.num_removed =
+      reconstruction->FilterPoints3D(judged_points(), snooping.max_error_px, min_angle_deg);
   options.refine_focal_length = false;
   options.refine_principal_point = false;
   options.refine_extra_params = false;
   options.refine_readout_time = false;
   std::size_t removed = snooping.num_removed;
   while (removed > 0 && snooping.num_rounds < max_rounds) {
-    snooping.summary = AdjustGlobalBundle(options, reconstruction).summary;
+    snooping.summary =
+        AdjustLocalBundle(weights, options, max_constant_observers, reconstruction).summary;
     ++snooping.num_rounds;
-    if (!snooping.summary.IsSolutionUsable()) break;
-    removed = reconstruction->FilterAllPoints3D(snooping.max_error_px, min_angle_deg);
+    // An adjustment that gave way (should_stop) is short of its optimum,
+    // where errors it would have taken within their bound are still beyond.
+    if (!snooping.summary.IsSolutionUsable() || (options.should_stop && options.should_stop())) {
+      break;
+    }
+    removed =
+        reconstruction->FilterPoints3D(judged_points(), snooping.max_error_px, min_angle_deg);
     snooping.num_removed += removed;
   }
   return snooping;
+}
+
+OutlierSnooping SnoopOutliers(double quantile, int max_rounds,
+                              const BundleAdjuster::Options& options, double min_angle_deg,
+                              Reconstruction* reconstruction) {
+  std::unordered_map<image_t, double> weights;
+  for (const image_t id : reconstruction->RegisteredImageIds()) weights[id] = 1.0;
+  return SnoopOutliers(weights, 0, quantile, max_rounds, options, min_angle_deg, reconstruction);
 }
 
 }  // namespace flysfm

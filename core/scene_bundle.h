@@ -55,13 +55,24 @@ SceneBundleResult AdjustGlobalBundle(const BundleAdjuster::Options& options,
 // bounds of the first estimate: estimated again each round, they would
 // shrink with the tail each round removed and go on removing.
 struct OutlierSnooping {
-  // Per registered image with observations, the error beyond which they went.
+  // Per judged image with observations, the error beyond which they went.
   std::unordered_map<image_t, double> max_error_px;
   std::size_t num_removed = 0;
   int num_rounds = 0;  // adjustments made
   BundleAdjuster::Summary summary;  // of the last adjustment
 };
-OutlierSnooping SnoopOutliers(double quantile, int max_rounds, BundleAdjuster::Options options,
-                              double min_angle_deg, Reconstruction* reconstruction);
+// Over the images of `weights`, adjusted as AdjustLocalBundle adjusts them:
+// only their own observations are judged (held images, weight infinity,
+// are not), so that between shots the images a large model's refinement
+// adjusts are snooped at the cost of their own BA (Engine::Refine). An
+// adjustment that gives way to `options.should_stop` ends the snooping.
+OutlierSnooping SnoopOutliers(const std::unordered_map<image_t, double>& weights,
+                              int max_constant_observers, double quantile, int max_rounds,
+                              BundleAdjuster::Options options, double min_angle_deg,
+                              Reconstruction* reconstruction);
+// Over every registered image, each adjustment a global BA.
+OutlierSnooping SnoopOutliers(double quantile, int max_rounds,
+                              const BundleAdjuster::Options& options, double min_angle_deg,
+                              Reconstruction* reconstruction);
 
 }  // namespace flysfm

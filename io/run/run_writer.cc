@@ -23,6 +23,16 @@ double Percentile(std::vector<double> values, double fraction) {
 
 }  // namespace
 
+nlohmann::json ToJson(const Engine::RefinementTotals& totals) {
+  return {{"slices", totals.num_slices},
+          {"pairs_tried", totals.num_pairs_tried},
+          {"pairs_verified", totals.num_pairs_verified},
+          {"pairs_linked", totals.num_pairs_linked},
+          {"global_bas", totals.num_global_bas},
+          {"snooped_observations", totals.num_snooped},
+          {"ms", totals.ms}};
+}
+
 nlohmann::json ToJson(const ImageResult& result) {
   nlohmann::json json = {
       {"name", result.name},
@@ -149,13 +159,7 @@ void RunWriter::WriteSummary(const Reconstruction& reconstruction,
       {"resumed_images", counts.resumed_images},
       {"skipped_in_model", counts.in_model},
       {"checkpoint_ms", counts.checkpoint_ms},
-      {"refinement",
-       {{"slices", counts.refinement.num_slices},
-        {"pairs_tried", counts.refinement.num_pairs_tried},
-        {"pairs_verified", counts.refinement.num_pairs_verified},
-        {"pairs_linked", counts.refinement.num_pairs_linked},
-        {"global_bas", counts.refinement.num_global_bas},
-        {"ms", counts.refinement.ms}}},
+      {"refinement", ToJson(counts.refinement)},
       {"cameras", cameras},
       {"points", reconstruction.NumPoints3D()},
       {"observations", reconstruction.NumObservations()},

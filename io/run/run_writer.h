@@ -24,6 +24,8 @@
 namespace flysfm {
 
 nlohmann::json ToJson(const ImageResult& result);
+// summary.json's "refinement".
+nlohmann::json ToJson(const Engine::RefinementTotals& totals);
 
 // What summary.json counts besides the engine's results.
 struct RunCounts {

@@ -14,7 +14,7 @@ namespace {
 auto Fields(const Engine::Options& o) {
   return std::make_tuple(o.verification.lsm_refinement, o.registration.lsm_densification,
                          o.hierarchical_weights, o.retrieval.use_tree,
-                         o.triangulation.complete_and_merge_tracks, o.final_outlier_quantile);
+                         o.triangulation.complete_and_merge_tracks, o.outlier_quantile);
 }
 
 TEST_CASE("Each ablation switch changes one component, under its own flag and name") {

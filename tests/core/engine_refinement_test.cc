@@ -70,8 +70,24 @@ std::vector<Engine::RefinementSlice> RefineAll(Engine* engine) {
   return slices;
 }
 
-TEST_CASE("Refinement matches the pairs arrival skipped, then triangulates, adjusts and "
-          "retriangulates, and ends") {
+// After the model's last snooping, no observation of the images it judged
+// is beyond its bound.
+std::size_t NumBeyondBounds(const Reconstruction& reconstruction,
+                            const OutlierSnooping& snooping) {
+  std::size_t beyond = 0;
+  for (const auto& [id, point] : reconstruction.points3D()) {
+    for (const TrackElement& element : point.track) {
+      const auto bound = snooping.max_error_px.find(element.image_id);
+      beyond += bound != snooping.max_error_px.end() &&
+                reconstruction.ReprojectionError(element.image_id, element.point2D_idx,
+                                                 point.xyz) > bound->second;
+    }
+  }
+  return beyond;
+}
+
+TEST_CASE("Refinement matches the pairs arrival skipped, then triangulates, adjusts, "
+          "retriangulates and snoops, and ends") {
   Engine engine(FewPairsOnArrival(), Capture().camera);
   AddAll(&engine);
   REQUIRE(engine.reconstruction().NumRegisteredImages() == Capture().frames.size());
@@ -81,7 +97,8 @@ TEST_CASE("Refinement matches the pairs arrival skipped, then triangulates, adju
   REQUIRE_FALSE(slices.empty());
   // Steps come in the documented order: every match slice first, then the
   // triangulation of the images with new pairs, then the BA and the
-  // retriangulation, BA and retriangulation again while they change enough.
+  // retriangulation, BA and retriangulation again while they change enough,
+  // and last the snooping.
   std::size_t i = 0;
   int tried = 0, verified = 0;
   for (; i < slices.size() && slices[i].step == Step::kMatch; ++i) {
@@ -102,7 +119,7 @@ TEST_CASE("Refinement matches the pairs arrival skipped, then triangulates, adju
   }
   REQUIRE(i < slices.size());
   int num_adjustments = 0;
-  for (; i < slices.size(); ++i) {
+  for (; i + 1 < slices.size(); ++i) {
     const Step step = slices[i].step;
     REQUIRE((step == Step::kAdjust || step == Step::kRetriangulate));
     if (step == Step::kAdjust) {
@@ -114,7 +131,16 @@ TEST_CASE("Refinement matches the pairs arrival skipped, then triangulates, adju
   }
   CHECK(num_adjustments >= 1);
   CHECK(num_adjustments <= engine.options().refinement.max_adjustments);
-  CHECK(slices.back().step == Step::kRetriangulate);
+  CHECK(slices.rbegin()[1].step == Step::kRetriangulate);
+  REQUIRE(slices.back().step == Step::kSnoop);
+  const OutlierSnooping& snooping = slices.back().snooping;
+  // Every image judged (a global BA's model), its noise's 1 % tail dropped
+  // and the model adjusted without it.
+  CHECK(snooping.max_error_px.size() == Capture().frames.size());
+  CHECK(snooping.num_removed > 0);
+  CHECK(snooping.summary.IsSolutionUsable());
+  REQUIRE(snooping.num_rounds < engine.options().outlier_max_rounds);
+  CHECK(NumBeyondBounds(engine.reconstruction(), snooping) == 0);
 
   // The wider match graph makes longer tracks, and the model stays exact.
   CHECK(engine.reconstruction().MeanTrackLength() > track_length_before);
@@ -127,6 +153,7 @@ TEST_CASE("Refinement matches the pairs arrival skipped, then triangulates, adju
   CHECK(totals.num_pairs_verified == verified);
   CHECK(totals.num_pairs_linked == 0);
   CHECK(totals.num_global_bas == num_adjustments);
+  CHECK(totals.num_snooped == snooping.num_removed);
   CHECK(totals.ms > 0);
 
   // Nothing left until a new image.
@@ -174,6 +201,17 @@ TEST_CASE("A slice gives way at once when an image waits") {
   // Left alone, it completes.
   CHECK(engine.Refine().step == Step::kAdjust);
   CHECK(engine.Refine(image_waiting).step == Step::kRetriangulate);
+  // So does the snooping, after the retriangulation (and the BAs it makes
+  // due, left alone to complete).
+  while ((slice = engine.Refine(image_waiting)).step != Step::kSnoop) {
+    REQUIRE((slice.step == Step::kRetriangulate || slice.step == Step::kAdjust));
+    CHECK(slice.num_images_triangulated <= 1);
+    if (slice.step == Step::kAdjust) REQUIRE(engine.Refine().step == Step::kAdjust);
+  }
+  CHECK(slice.snooping.num_rounds <= 1);
+  CHECK(engine.Refine(image_waiting).step == Step::kSnoop);
+  CHECK(engine.Refine().step == Step::kSnoop);
+  CHECK(engine.Refine().step == Step::kNone);
 }
 
 TEST_CASE("A new image starts refinement again, with its own pairs") {
@@ -213,7 +251,8 @@ TEST_CASE("Beyond max_adjusted_observations the BA refines the images registered
   Engine engine(options, Capture().camera);
   AddAll(&engine);
   int num_adjustments = 0;
-  for (const Engine::RefinementSlice& slice : RefineAll(&engine)) {
+  const std::vector<Engine::RefinementSlice> slices = RefineAll(&engine);
+  for (const Engine::RefinementSlice& slice : slices) {
     if (!slice.global_ba) continue;
     ++num_adjustments;
     CHECK(slice.ba.num_free_images == 2);
@@ -221,6 +260,16 @@ TEST_CASE("Beyond max_adjusted_observations the BA refines the images registered
     CHECK(slice.ba.IsSolutionUsable());
   }
   CHECK(num_adjustments >= 1);
+  // The snooping judges those two alone, and adjusts them alone.
+  REQUIRE(slices.back().step == Step::kSnoop);
+  const OutlierSnooping& snooping = slices.back().snooping;
+  const std::vector<image_t>& registered = engine.reconstruction().RegisteredImageIds();
+  CHECK(snooping.max_error_px.size() == 2);
+  CHECK(snooping.max_error_px.count(registered.rbegin()[0]) == 1);
+  CHECK(snooping.max_error_px.count(registered.rbegin()[1]) == 1);
+  if (snooping.num_rounds > 0) CHECK(snooping.summary.num_free_images == 2);
+  REQUIRE(snooping.num_rounds < engine.options().outlier_max_rounds);
+  CHECK(NumBeyondBounds(engine.reconstruction(), snooping) == 0);
   CHECK(CenterRmse(engine.reconstruction()) < kCenterTolerance);
 }
 

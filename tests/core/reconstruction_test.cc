@@ -93,10 +93,10 @@ TEST_CASE("Filtering with a bound per image holds each image's observations to i
   // without a bound keep everything.
   const std::unordered_map<image_t, double> bounds = {{track[0].image_id, 3.0},
                                                       {track[1].image_id, 1.0}};
-  CHECK(r.FilterAllPoints3D(bounds, 0.0) == 1);
+  CHECK(r.FilterPoints3D(f.point_ids, bounds, 0.0) == 1);
   CHECK(keypoint(track[0]).HasPoint3D());
   CHECK_FALSE(keypoint(track[1]).HasPoint3D());
-  CHECK(r.FilterAllPoints3D(std::unordered_map<image_t, double>(), 0.0) == 0);
+  CHECK(r.FilterPoints3D(f.point_ids, std::unordered_map<image_t, double>(), 0.0) == 0);
 }
 
 TEST_CASE("Filtering drops points with too small a triangulation angle") {

@@ -3,8 +3,10 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <random>
 #include <set>
+#include <unordered_map>
 #include <vector>
 
 #include <Eigen/Geometry>
@@ -493,6 +495,53 @@ TEST_CASE("Snooping ends at the optimum of what it keeps, with nothing beyond it
   Reconstruction once = mixed.noisy;
   REQUIRE(SnoopOutliers(0.99, 1, options, 0, &once).num_rounds == 1);
   CHECK(CostLeft(once, options) > tolerance);
+}
+
+// Between shots a large model's refinement adjusts the images registered
+// last; its snooping judges those images' observations and moves only them
+// and their points.
+TEST_CASE("Snooping over some images judges and moves those alone") {
+  MixedPrecisionScene mixed = MakeMixedPrecisionScene(6);
+  const BundleAdjuster::Options options;
+  REQUIRE(AdjustGlobalBundle(options, &mixed.noisy).summary.IsSolutionUsable());
+  std::unordered_map<image_t, double> weights;
+  for (int i = 30; i < 40; ++i) weights[SceneImageId(i)] = 1.0;
+  // Held: observes the block's points, is not judged.
+  weights[SceneImageId(29)] = std::numeric_limits<double>::infinity();
+  Reconstruction snooped = mixed.noisy;
+  const OutlierSnooping snooping = SnoopOutliers(weights, 0, 0.99, 10, options, 0, &snooped);
+  REQUIRE(snooping.summary.IsSolutionUsable());
+  CHECK(snooping.num_removed > 0);
+  CHECK(snooping.num_rounds < 10);
+  CHECK(snooping.max_error_px.size() == 10);
+  CHECK(snooping.max_error_px.count(SceneImageId(29)) == 0);
+  std::size_t beyond = 0, lost_elsewhere = 0;
+  for (int i = 0; i < 40; ++i) {
+    const image_t id = SceneImageId(i);
+    const Image& before = mixed.noisy.image(id);
+    const Image& after = snooped.image(id);
+    const auto bound = snooping.max_error_px.find(id);
+    if (bound == snooping.max_error_px.end()) {
+      // Not judged: unmoved, and an observation goes only with its whole
+      // point, a track that a drop elsewhere left with one element.
+      CHECK(after.cam_from_world->rotation.coeffs() == before.cam_from_world->rotation.coeffs());
+      CHECK(after.cam_from_world->translation == before.cam_from_world->translation);
+      for (std::size_t idx = 0; idx < before.points2D.size(); ++idx) {
+        const point3D_t point = before.points2D[idx].point3D_id;
+        lost_elsewhere += point != kInvalidPoint3DId && !after.points2D[idx].HasPoint3D() &&
+                          snooped.ExistsPoint3D(point);
+      }
+      continue;
+    }
+    for (point2D_t idx = 0; idx < after.points2D.size(); ++idx) {
+      if (!after.points2D[idx].HasPoint3D()) continue;
+      beyond += snooped.ReprojectionError(
+                    id, idx, snooped.point3D(after.points2D[idx].point3D_id).xyz) >
+                bound->second;
+    }
+  }
+  CHECK(beyond == 0);
+  CHECK(lost_elsewhere == 0);
 }
 
 }  // namespace
