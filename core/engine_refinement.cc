@@ -203,9 +203,8 @@ void Engine::SnoopEverything(const std::function<bool()>& should_yield,
                              RefinementSlice* slice) {
   BundleAdjuster::Options options = options_.global_ba;
   options.should_stop = should_yield;
-  const std::unordered_map<image_t, double> weights = RefinementWindow();
-  const bool global = weights.size() == reconstruction_.NumRegisteredImages();
-  slice->snooping = SnoopOutliers(weights, global ? 0 : options_.ba_max_constant_observers,
+  // A window of every image has no held observer to bound.
+  slice->snooping = SnoopOutliers(RefinementWindow(), options_.ba_max_constant_observers,
                                   options_.outlier_quantile, options_.outlier_max_rounds,
                                   options, options_.filter_min_tri_angle_deg, &reconstruction_);
   // One that gave way to a new image runs again once that image is in.

@@ -159,6 +159,13 @@ SceneBundleResult Adjust(const std::unordered_map<image_t, double>& weights,
   return result;
 }
 
+// Weight 1 each: a global problem.
+std::unordered_map<image_t, double> EveryRegisteredImage(const Reconstruction& reconstruction) {
+  std::unordered_map<image_t, double> weights;
+  for (const image_t id : reconstruction.RegisteredImageIds()) weights[id] = 1.0;
+  return weights;
+}
+
 }  // namespace
 
 SceneBundleResult AdjustLocalBundle(const std::unordered_map<image_t, double>& weights,
@@ -170,9 +177,7 @@ SceneBundleResult AdjustLocalBundle(const std::unordered_map<image_t, double>& w
 
 SceneBundleResult AdjustGlobalBundle(const BundleAdjuster::Options& options,
                                      Reconstruction* reconstruction) {
-  std::unordered_map<image_t, double> weights;
-  for (const image_t id : reconstruction->RegisteredImageIds()) weights[id] = 1.0;
-  return Adjust(weights, options, 0, reconstruction);
+  return Adjust(EveryRegisteredImage(*reconstruction), options, 0, reconstruction);
 }
 
 OutlierSnooping SnoopOutliers(const std::unordered_map<image_t, double>& weights,
@@ -237,9 +242,8 @@ OutlierSnooping SnoopOutliers(const std::unordered_map<image_t, double>& weights
 OutlierSnooping SnoopOutliers(double quantile, int max_rounds,
                               const BundleAdjuster::Options& options, double min_angle_deg,
                               Reconstruction* reconstruction) {
-  std::unordered_map<image_t, double> weights;
-  for (const image_t id : reconstruction->RegisteredImageIds()) weights[id] = 1.0;
-  return SnoopOutliers(weights, 0, quantile, max_rounds, options, min_angle_deg, reconstruction);
+  return SnoopOutliers(EveryRegisteredImage(*reconstruction), 0, quantile, max_rounds, options,
+                       min_angle_deg, reconstruction);
 }
 
 }  // namespace flysfm
