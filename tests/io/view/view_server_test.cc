@@ -194,7 +194,10 @@ TEST_CASE("A browser that never reads neither slows publishing nor misses the la
   }
   const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
   INFO("slowest Publish " << slowest_ms << " ms, all " << seconds << " s");
-  CHECK(seconds < 10);
+  // A publisher that wrote to the stalled socket would wait out the write
+  // timeout in one Publish; serialising the updates takes its own time, which
+  // a sanitizer build multiplies, so that is not what is bounded here.
+  CHECK(slowest_ms < 1000 * options.write_timeout_seconds / 2);
   server.Finish(0.0);
 
   // Reading now: the stream skipped what overflowed and sent the model again.
