@@ -350,9 +350,9 @@ BundleAdjuster::Summary BundleAdjuster::Solve(BundleProblem* problem) const {
     AddedResidual residual;
     residual.observation = o;
     residual.pose_free = pose_free;
-    if (image.IsMoving()) {
-      // A held pose enters as constant blocks: the folded constant-pose
-      // cost has no readout time to refine.
+    if (image.IsMoving() && (pose_free || readout_free[image.camera])) {
+      // A held pose enters as constant blocks where the readout time is
+      // refined: the folded constant-pose cost has none.
       residual.cost = CreateRollingShutterReprojectionCost(
           camera.model_id, obs.pixel, RowTimeFraction(obs.pixel.y(), camera.height),
           image.angular_velocity, image.linear_velocity);
@@ -371,8 +371,13 @@ BundleAdjuster::Summary BundleAdjuster::Solve(BundleProblem* problem) const {
       residual.point_block = 2;
       image_added[obs.image] = 1;
     } else {
+      // A held rolling-shutter image's row time folds in with its pose: the
+      // local BAs of a video hold most of their observers so.
       residual.cost = CreateConstantPoseReprojectionCost(
-          camera.model_id, image.cam_from_world, obs.pixel);
+          camera.model_id, image.cam_from_world, obs.pixel,
+          image.IsMoving() ? RowTimeFraction(obs.pixel.y(), camera.height) * camera.readout_time
+                           : 0,
+          image.angular_velocity, image.linear_velocity);
       residual.blocks = {problem->points[obs.point].data(), camera.params.data()};
     }
     camera_added[image.camera] = 1;

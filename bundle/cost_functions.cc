@@ -145,6 +145,16 @@ class ReprojectionCost
   Eigen::Vector2d pixel_;
 };
 
+// I + tau [w]x: the linear part of a rolling-shutter row's motion, a point p
+// of the pose's frame moving to p + tau (w x p + v).
+Eigen::Matrix3d MovedFromCam(double tau, const Eigen::Vector3d& angular_velocity) {
+  Eigen::Matrix3d skew;
+  skew << 0, -angular_velocity.z(), angular_velocity.y(),  //
+      angular_velocity.z(), 0, -angular_velocity.x(),      //
+      -angular_velocity.y(), angular_velocity.x(), 0;
+  return Eigen::Matrix3d::Identity() + tau * skew;
+}
+
 // ReprojectionCost for a rolling-shutter image (BundleImage::IsMoving): the
 // point in the pose's frame, p, is moved to where it is when its row is read,
 // p + tau (w x p + v) with tau = row fraction * readout time, a fifth
@@ -176,12 +186,7 @@ class RollingShutterReprojectionCost
     residuals[0] = projection.pixel.x() - pixel_.x();
     residuals[1] = projection.pixel.y() - pixel_.y();
     if (jacobians == nullptr) return true;
-    Eigen::Matrix3d d_moved = Eigen::Matrix3d::Identity();
-    d_moved += tau * (Eigen::Matrix3d() << 0, -angular_velocity_.z(),
-                      angular_velocity_.y(), angular_velocity_.z(), 0,
-                      -angular_velocity_.x(), -angular_velocity_.y(),
-                      angular_velocity_.x(), 0)
-                         .finished();
+    const Eigen::Matrix3d d_moved = MovedFromCam(tau, angular_velocity_);
     const Eigen::Matrix<double, 2, 3, Eigen::RowMajor> d_in_cam =
         projection.d_point * d_moved;
     PoseJacobians(d_in_cam, parameters[0], posed.rotated, jacobians[0], jacobians[1]);
@@ -202,35 +207,37 @@ class RollingShutterReprojectionCost
   Eigen::Vector3d linear_velocity_;
 };
 
+// ReprojectionCost for a held pose, folded into the cost: the point enters
+// the projection as A X + b, a rigid cam_from_world or, for a rolling-shutter
+// image whose readout time is held as well, that pose followed by the row's
+// motion (I + tau [w]x) p + tau v, affine in X too.
 template <typename Model>
 class ConstantPoseReprojectionCost
     : public ceres::SizedCostFunction<2, 3, Model::kNumParams> {
  public:
-  ConstantPoseReprojectionCost(const Rigid3d& cam_from_world,
+  ConstantPoseReprojectionCost(const Eigen::Matrix3d& linear,
+                               const Eigen::Vector3d& offset,
                                const Eigen::Vector2d& pixel)
-      : rotation_(cam_from_world.rotation.toRotationMatrix()),
-        translation_(cam_from_world.translation),
-        pixel_(pixel) {}
+      : linear_(linear), offset_(offset), pixel_(pixel) {}
 
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override {
     const Eigen::Vector3d in_cam =
-        rotation_ * Eigen::Map<const Eigen::Vector3d>(parameters[0]) +
-        translation_;
+        linear_ * Eigen::Map<const Eigen::Vector3d>(parameters[0]) + offset_;
     Projection<Model> projection;
     projection.Evaluate(parameters[1], in_cam, jacobians != nullptr,
                         jacobians != nullptr && jacobians[1] != nullptr);
     residuals[0] = projection.pixel.x() - pixel_.x();
     residuals[1] = projection.pixel.y() - pixel_.y();
     if (jacobians != nullptr) {
-      PointAndParamJacobians(projection, rotation_, jacobians[0], jacobians[1]);
+      PointAndParamJacobians(projection, linear_, jacobians[0], jacobians[1]);
     }
     return true;
   }
 
  private:
-  Eigen::Matrix3d rotation_;
-  Eigen::Vector3d translation_;
+  Eigen::Matrix3d linear_;
+  Eigen::Vector3d offset_;
   Eigen::Vector2d pixel_;
 };
 
@@ -285,10 +292,16 @@ ceres::CostFunction* CreateRollingShutterReprojectionCost(
 
 ceres::CostFunction* CreateConstantPoseReprojectionCost(
     CameraModelId model_id, const Rigid3d& cam_from_world,
-    const Eigen::Vector2d& pixel) {
+    const Eigen::Vector2d& pixel, double row_time,
+    const Eigen::Vector3d& angular_velocity, const Eigen::Vector3d& linear_velocity) {
+  const Eigen::Matrix3d moved_from_cam = MovedFromCam(row_time, angular_velocity);
+  const Eigen::Matrix3d linear =
+      moved_from_cam * cam_from_world.rotation.toRotationMatrix();
+  const Eigen::Vector3d offset =
+      moved_from_cam * cam_from_world.translation + row_time * linear_velocity;
   return VisitCameraModel(model_id, [&](auto model) -> ceres::CostFunction* {
     using Model = decltype(model);
-    return new ConstantPoseReprojectionCost<Model>(cam_from_world, pixel);
+    return new ConstantPoseReprojectionCost<Model>(linear, offset, pixel);
   });
 }
 

@@ -35,10 +35,15 @@ ceres::CostFunction* CreateRollingShutterReprojectionCost(
     const Eigen::Vector3d& linear_velocity);
 
 // The same residual for an image whose pose is held constant, the pose folded
-// into the cost. Parameter blocks: point (3), camera params.
+// into the cost. Parameter blocks: point (3), camera params. For a
+// rolling-shutter image whose readout time is held too, `row_time` (seconds:
+// RowTimeFraction times the readout time) and the image's motion fold in
+// as well, the rolling-shutter cost with its pose and readout held.
 ceres::CostFunction* CreateConstantPoseReprojectionCost(
     CameraModelId model_id, const Rigid3d& cam_from_world,
-    const Eigen::Vector2d& pixel);
+    const Eigen::Vector2d& pixel, double row_time = 0,
+    const Eigen::Vector3d& angular_velocity = Eigen::Vector3d::Zero(),
+    const Eigen::Vector3d& linear_velocity = Eigen::Vector3d::Zero());
 
 // Residual: sqrt_information * e, e = (rotation error, t - t_prior), where the
 // rotation error is the tangent of ceres::EigenQuaternionManifold at the

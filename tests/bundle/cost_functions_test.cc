@@ -173,6 +173,19 @@ TEST_CASE("The rolling-shutter cost moves the point along the motion by its row'
     REQUIRE(still->Evaluate(still_blocks, still_residual.data(), nullptr));
     CHECK((still_residual - residual).norm() > 0.1);
 
+    // Pose and readout time held: the folded constant-pose cost gives the
+    // same residual and point and camera derivatives.
+    const std::unique_ptr<ceres::CostFunction> held(CreateConstantPoseReprojectionCost(
+        camera.model_id, pose, pixel, tau, angular, linear));
+    Eigen::Vector2d held_residual;
+    RowMatrixXd h_point(2, 3), h_params(2, num_params);
+    const double* held_blocks[] = {point.data(), camera.params.data()};
+    double* held_jacobians[] = {h_point.data(), h_params.data()};
+    REQUIRE(held->Evaluate(held_blocks, held_residual.data(), held_jacobians));
+    CHECK((held_residual - residual).norm() < 1e-9);
+    CHECK((h_point - analytic.middleCols(6, 3)).norm() < 1e-9 * h_point.norm());
+    CHECK((h_params - analytic.middleCols(9, num_params)).norm() < 1e-9 * h_params.norm());
+
     for (int k = 0; k < n; ++k) {
       const double h = k < 9 || k == n - 1 ? 1e-6 : 1e-6 * std::max(1.0, std::abs(camera.params[k - 9]));
       Eigen::VectorXd delta = Eigen::VectorXd::Zero(n);
