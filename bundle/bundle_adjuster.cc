@@ -372,11 +372,11 @@ BundleAdjuster::Summary BundleAdjuster::Solve(BundleProblem* problem) const {
       image_added[obs.image] = 1;
     } else {
       // A held rolling-shutter image's row time folds in with its pose: the
-      // local BAs of a video hold most of their observers so.
+      // local BAs of a video hold most of their observers so. A still
+      // image's zero velocities make its row time moot.
       residual.cost = CreateConstantPoseReprojectionCost(
           camera.model_id, image.cam_from_world, obs.pixel,
-          image.IsMoving() ? RowTimeFraction(obs.pixel.y(), camera.height) * camera.readout_time
-                           : 0,
+          RowTimeFraction(obs.pixel.y(), camera.height) * camera.readout_time,
           image.angular_velocity, image.linear_velocity);
       residual.blocks = {problem->points[obs.point].data(), camera.params.data()};
     }
