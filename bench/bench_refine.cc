@@ -31,7 +31,8 @@
 // taken), off and on: its error's median over the arrivals, and at how many
 // on was lower.
 //
-// --repeat N runs each set off then on N times: the latency figures pool the
+// --repeat N runs each set off and on N times, off first in the first repeat
+// and on first in the second, and so on: the latency figures pool the
 // repeats, the accuracy is the first's, and each image's own stages on less
 // off (paired by image and repeat) give the difference refinement makes to
 // them with a distribution-free 95 % interval: a few milliseconds between
@@ -536,8 +537,16 @@ int main(int argc, char** argv) {
       std::vector<double> own_on_less_off;
       std::vector<double> repeat_medians;  // of each repeat's differences
       for (int r = 0; r < repeat; ++r) {
-        const Run off_repeat = RunPaced(set, false, interval);
-        const Run on_repeat = RunPaced(set, true, interval);
+        // Every second repeat runs on first, so that whatever the order of
+        // two runs in one process does to their times falls on both alike.
+        Run off_repeat, on_repeat;
+        if (r % 2 == 0) {
+          off_repeat = RunPaced(set, false, interval);
+          on_repeat = RunPaced(set, true, interval);
+        } else {
+          on_repeat = RunPaced(set, true, interval);
+          off_repeat = RunPaced(set, false, interval);
+        }
         std::vector<double> differences;
         for (const auto& [name, ms] : on_repeat.own_ms_by_name) {
           const auto it = off_repeat.own_ms_by_name.find(name);
