@@ -102,27 +102,60 @@ struct Accuracy {
   std::optional<PoseFit> pose_fit;
 };
 
+// The model's centres against the truth: its registered images' poses with
+// a true pose (photos), or its trajectory (TUM). Copied when an image
+// arrives, before it is added (microseconds for a few hundred images, within
+// that image's latency), and compared after the run: the Sim3 alignments
+// stay out of every latency.
+struct ModelCentres {
+  std::vector<Eigen::Vector3d> estimated, reference;  // photos
+  std::vector<std::string> names;                      // photos, as `estimated`
+  std::vector<StampedPose> trajectory;                 // TUM
+};
+
+ModelCentres CentresOf(const Reconstruction& model, const DataSet& set) {
+  ModelCentres centres;
+  if (set.poses.empty()) {
+    centres.trajectory = TrajectoryOf(model);
+    return centres;
+  }
+  for (const image_t id : model.RegisteredImageIds()) {
+    const Image& image = model.image(id);
+    const auto truth = set.poses.find(image.name);
+    if (truth == set.poses.end()) continue;
+    centres.estimated.push_back(ProjectionCenter(*image.cam_from_world));
+    centres.reference.push_back(ProjectionCenter(truth->second));
+    centres.names.push_back(image.name);
+  }
+  return centres;
+}
+
+std::optional<double> ErrorOf(const ModelCentres& centres, const DataSet& set) {
+  if (set.poses.empty()) {
+    const TrajectoryEvaluation evaluation = EvaluateTrajectory(centres.trajectory, set.trajectory);
+    if (!evaluation.ate) return std::nullopt;
+    return evaluation.ate->rmse;
+  }
+  const auto errors = ComparePositionsAfterSim3(centres.estimated, centres.reference);
+  if (!errors) return std::nullopt;
+  return errors->rmse;
+}
+
 Accuracy Evaluate(const Reconstruction& model, const DataSet& set) {
   Accuracy accuracy;
   accuracy.registered = int(model.NumRegisteredImages());
+  const ModelCentres centres = CentresOf(model, set);
   if (!set.poses.empty()) {
-    std::map<std::string, Eigen::Vector3d> centres;
-    for (const auto& [name, pose] : set.poses) centres[name] = ProjectionCenter(pose);
-    if (const auto errors = CompareCentersByName(model, centres)) {
+    if (const auto errors = ComparePositionsAfterSim3(centres.estimated, centres.reference)) {
       accuracy.error_m = errors->rmse;
-      for (const image_t id : model.RegisteredImageIds()) {
-        const Image& image = model.image(id);
-        const auto truth = centres.find(image.name);
-        if (truth == centres.end()) continue;
-        accuracy.centre_errors[image.name] =
-            errors->reference_from_estimate * ProjectionCenter(*image.cam_from_world) -
-            truth->second;
+      for (std::size_t i = 0; i < centres.names.size(); ++i) {
+        accuracy.centre_errors[centres.names[i]] =
+            errors->reference_from_estimate * centres.estimated[i] - centres.reference[i];
       }
     }
     accuracy.pose_fit = FitObservationsToPoses(model, set.poses);
   } else {
-    const TrajectoryEvaluation evaluation = EvaluateTrajectory(TrajectoryOf(model), set.trajectory);
-    if (evaluation.ate) accuracy.error_m = evaluation.ate->rmse;
+    accuracy.error_m = ErrorOf(centres, set);
   }
   return accuracy;
 }
@@ -182,43 +215,6 @@ std::vector<double> OwnMs(const Run& run) {
   std::vector<double> own_ms;
   for (const StageTimes& times : run.own_times) own_ms.push_back(OwnMs(times));
   return own_ms;
-}
-
-// The model's centres against the truth: its registered images' poses with
-// a true pose (photos), or its trajectory (TUM). Copied when an image
-// arrives, before it is added (microseconds for a few hundred images, within
-// that image's latency), and compared after the run: the Sim3 alignments
-// stay out of every latency.
-struct ModelCentres {
-  std::vector<Eigen::Vector3d> estimated, reference;  // photos
-  std::vector<StampedPose> trajectory;                 // TUM
-};
-
-ModelCentres CentresOf(const Reconstruction& model, const DataSet& set) {
-  ModelCentres centres;
-  if (set.poses.empty()) {
-    centres.trajectory = TrajectoryOf(model);
-    return centres;
-  }
-  for (const image_t id : model.RegisteredImageIds()) {
-    const Image& image = model.image(id);
-    const auto truth = set.poses.find(image.name);
-    if (truth == set.poses.end()) continue;
-    centres.estimated.push_back(ProjectionCenter(*image.cam_from_world));
-    centres.reference.push_back(ProjectionCenter(truth->second));
-  }
-  return centres;
-}
-
-std::optional<double> ErrorOf(const ModelCentres& centres, const DataSet& set) {
-  if (set.poses.empty()) {
-    const TrajectoryEvaluation evaluation = EvaluateTrajectory(centres.trajectory, set.trajectory);
-    if (!evaluation.ate) return std::nullopt;
-    return evaluation.ate->rmse;
-  }
-  const auto errors = ComparePositionsAfterSim3(centres.estimated, centres.reference);
-  if (!errors) return std::nullopt;
-  return errors->rmse;
 }
 
 Run RunPaced(const DataSet& set, bool refine, double interval_s) {
