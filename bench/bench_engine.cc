@@ -27,6 +27,7 @@
 
 #include "core/ablation.h"
 #include "core/engine.h"
+#include "core/malloc_policy.h"
 #include "io/evaluation/evaluation.h"
 #include "io/formats/trajectory.h"
 #include "io/run/run_writer.h"
@@ -137,6 +138,7 @@ nlohmann::json ToJson(const Run& run) {
 
 int main(int argc, char** argv) {
   using namespace flysfm;
+  ApplyMallocPolicy();  // as flysfm does: the engine measured as it runs there
   int num_frames = 330;
   int shuffle_seed = -1;
   bool ablation = false;

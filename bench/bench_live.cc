@@ -23,6 +23,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/engine.h"
+#include "core/malloc_policy.h"
 #include "io/camfi/camfi_client.h"
 #include "io/camfi/camfi_emulator.h"
 #include "io/sources/image_source.h"
@@ -41,6 +42,7 @@ double Median(std::vector<double> values) {
 
 int main(int argc, char** argv) {
   using namespace flysfm;
+  ApplyMallocPolicy();  // as flysfm does: the engine measured as it runs there
   using Clock = std::chrono::steady_clock;
   int num_frames = 30;
   double interval = 1.0;

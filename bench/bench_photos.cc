@@ -9,7 +9,7 @@
 //
 //   bench_photos [--photos N] [--megapixels 6|24] [--calibrated] [--seed S]
 //                [--supersampling K] [--work DIR] [--window-budget MB] [--profile]
-//                [--data DIR] [--no-real]
+//                [--data DIR] [--no-real] [--glibc-malloc-defaults]
 //
 // After the synthetic session, the same per-photo figures on the real 6 MP
 // sets of --data (default $FLYSFM_DATA or the configured folder):
@@ -24,6 +24,8 @@
 // the engine's. With --work the JPEGs are kept there and reused by a later
 // run with the same seed and size (rendering 300 photos takes minutes).
 // --window-budget sets LsmImageStore::Options::window_budget_megabytes.
+// --glibc-malloc-defaults leaves the allocator as glibc sets it, the baseline
+// of core/malloc_policy.h (compare the page faults and the stage times).
 //
 // --profile adds an offline look at why two-view verification costs more on
 // photos than on 640x480 frames: sample pairs of the session are matched and
@@ -55,6 +57,7 @@
 
 #include "bench/photo_session.h"
 #include "core/engine.h"
+#include "core/malloc_policy.h"
 #include "geometry/two_view_geometry.h"
 #include "io/evaluation/evaluation.h"
 #include "io/sources/image_source.h"
@@ -321,6 +324,10 @@ struct SessionRun {
   double peak_mb = 0;     // VmHWM after Finish (reset before, where Linux lets us)
   double maxrss_mb = 0;   // the whole process's
   bool peak_reset = false;
+  // Minor page faults of the whole process from the engine's start to the
+  // end of Finish: memory handed back to the system and faulted in again
+  // (core/malloc_policy.h).
+  long page_faults = 0;
 };
 
 using PhotoCallback = std::function<void(const Engine&, const std::vector<ImageResult>&,
@@ -330,6 +337,9 @@ SessionRun RunSession(const std::vector<Frame>& frames, const Engine::Options& o
                       const std::optional<Camera>& known_camera, const PhotoCallback& on_photo) {
   SessionRun run;
   run.peak_reset = ResetPeakRss();
+  rusage usage;
+  getrusage(RUSAGE_SELF, &usage);
+  run.page_faults = -usage.ru_minflt;
   const auto start = Clock::now();
   Engine engine(options, known_camera);
   FrameListSource source(frames);
@@ -355,8 +365,8 @@ SessionRun RunSession(const std::vector<Frame>& frames, const Engine::Options& o
   run.finish_s = MsSince(finish) / 1000;
   run.wall_s = MsSince(start) / 1000;
   run.peak_mb = ProcStatusMb("VmHWM");
-  rusage usage;
   getrusage(RUSAGE_SELF, &usage);
+  run.page_faults += usage.ru_minflt;
   run.maxrss_mb = usage.ru_maxrss / 1024.0;
   run.pending = engine.PendingImageNames().size();
   run.model = engine.reconstruction();
@@ -460,6 +470,7 @@ int main(int argc, char** argv) {
   std::string data =
       std::getenv("FLYSFM_DATA") ? std::getenv("FLYSFM_DATA") : FLYSFM_DEFAULT_DATA_DIR;
   bool real_sets = true;
+  bool glibc_malloc_defaults = false;
   for (int i = 1; i < argc; ++i) {
     const bool has_value = i + 1 < argc;
     if (!std::strcmp(argv[i], "--photos") && has_value) {
@@ -482,6 +493,8 @@ int main(int argc, char** argv) {
       data = argv[++i];
     } else if (!std::strcmp(argv[i], "--no-real")) {
       real_sets = false;
+    } else if (!std::strcmp(argv[i], "--glibc-malloc-defaults")) {
+      glibc_malloc_defaults = true;
     } else {
       num_photos = -1;
       break;
@@ -491,9 +504,11 @@ int main(int argc, char** argv) {
       window_budget_mb < 0) {
     std::cerr << "usage: bench_photos [--photos N>=10] [--megapixels 6|24] [--calibrated] "
                  "[--seed S] [--supersampling K] [--work DIR] [--window-budget MB] "
-                 "[--profile] [--data DIR] [--no-real]\n";
+                 "[--profile] [--data DIR] [--no-real] [--glibc-malloc-defaults]\n";
     return 2;
   }
+  // As flysfm, before any thread starts: the engine as it runs there.
+  const bool malloc_policy = !glibc_malloc_defaults && ApplyMallocPolicy();
 
   // 3:2 sensor; a 30 mm-equivalent lens (36 mm film width): f = 30/36 width.
   const int width = megapixels == 24 ? 6000 : 3000;
@@ -655,8 +670,9 @@ int main(int argc, char** argv) {
   std::printf("memory: RSS %.0f MB before the engine; during the run:", rss_before_mb);
   for (const auto& [index, mb] : rss_samples) std::printf(" %d: %.0f MB,", index, mb);
   std::printf(" peak (VmHWM%s) %.0f MB; ru_maxrss (whole process, rendering included) %.0f "
-              "MB\n",
-              run.peak_reset ? ", reset before the engine" : "", run.peak_mb, run.maxrss_mb);
+              "MB; %ld page faults (malloc policy %s)\n",
+              run.peak_reset ? ", reset before the engine" : "", run.peak_mb, run.maxrss_mb,
+              run.page_faults, malloc_policy ? "applied" : "refused: glibc's defaults");
   if (errors) {
     std::printf("accuracy: %d centres compared, RMSE after Sim3 %.3f m = %.4f of the mean "
                 "distance to the building (%.1f m); median %.3f m, max %.3f m\n",
@@ -696,6 +712,8 @@ int main(int argc, char** argv) {
       {"rss_mb", rss},
       {"peak_rss_mb", run.peak_mb},
       {"ru_maxrss_mb", run.maxrss_mb},
+      {"page_faults", run.page_faults},
+      {"malloc_policy", malloc_policy},
       {"mean_distance_m", mean_distance},
       {"center_rmse_m", errors ? errors->rmse : -1.0},
       {"center_rmse_relative", errors ? errors->rmse / mean_distance : -1.0},

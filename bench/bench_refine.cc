@@ -67,6 +67,7 @@
 
 #include "bench/photo_session.h"
 #include "core/engine.h"
+#include "core/malloc_policy.h"
 #include "io/evaluation/evaluation.h"
 #include "io/formats/colmap_model.h"
 #include "io/formats/trajectory.h"
@@ -440,6 +441,7 @@ nlohmann::json ToJson(const Run& run, const char* unit, double scale) {
 
 int main(int argc, char** argv) {
   using namespace flysfm;
+  ApplyMallocPolicy();  // as flysfm does: the engine measured as it runs there
   std::string data = std::getenv("FLYSFM_DATA") ? std::getenv("FLYSFM_DATA")
                                                 : FLYSFM_DEFAULT_DATA_DIR;
   std::vector<std::string> sets = {"fountain", "temple", "rendered", "fr3", "fr1"};

@@ -28,6 +28,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/engine.h"
+#include "core/malloc_policy.h"
 #include "io/run/checkpoint.h"
 #include "io/sources/image_source.h"
 #include "io/sources/prepared_source.h"
@@ -50,6 +51,7 @@ double Median(std::vector<double> values) {
 
 int main(int argc, char** argv) {
   using namespace flysfm;
+  ApplyMallocPolicy();  // as flysfm does: the engine measured as it runs there
   std::string input;
   int num_images = 300;
   std::string camera_text;

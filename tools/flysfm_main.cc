@@ -6,9 +6,13 @@
 
 #include <CLI/CLI.hpp>
 
+#include "core/malloc_policy.h"
 #include "tools/commands.h"
 
 int main(int argc, char** argv) {
+  // Before any thread starts (core/malloc_policy.h); where the allocator
+  // refuses, the program runs as before, only slower.
+  flysfm::ApplyMallocPolicy();
   CLI::App app{
       "flysfm: on-the-fly Structure-from-Motion. Each image is registered "
       "(pose, new 3D points) as it arrives."};
