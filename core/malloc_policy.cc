@@ -15,8 +15,8 @@ bool MallocPolicy::Check() const {
 bool ApplyMallocPolicy(const MallocPolicy& policy) {
   if (!policy.Check()) return false;
 #if defined(__GLIBC__)
-  // mallopt returns 1 on success, 0 on a refused value (ASan's and TSan's
-  // interceptors: always 0).
+  // mallopt returns 1 on success, 0 on a refused value. Under a sanitizer
+  // its allocator, not glibc's, serves malloc, whatever mallopt returns.
   return mallopt(M_ARENA_MAX, policy.max_arenas) == 1 &&
          mallopt(M_MMAP_THRESHOLD, policy.mmap_threshold_bytes) == 1 &&
          mallopt(M_TRIM_THRESHOLD, policy.trim_threshold_bytes) == 1;

@@ -12,7 +12,7 @@ namespace flysfm {
 // its own, whose 64 MB heaps are unmapped as soon as they are free, and slide
 // the size above which a block is mapped by itself: on bench_photos' 6 MP
 // session 4.1 million page faults, a quarter of the run's CPU time in the
-// kernel and SIFT's median doubled (docs/engine.md, "Memory").
+// kernel and SIFT's median doubled (docs/engine.md, "The allocator").
 struct MallocPolicy {
   // One arena for every thread: what a thread frees, another reuses.
   int max_arenas = 1;
@@ -22,16 +22,17 @@ struct MallocPolicy {
   int mmap_threshold_bytes = 32 << 20;
   // Free memory at the heap's top kept for the next image rather than
   // returned: SIFT's working set at 1 600 pixels (about 400 MB) with margin.
-  // It lies under the peak the same image reached, so the peak does not move.
+  // It lies under the peak the same image reached; the peak grew by 2-4 %
+  // only (one arena's holes fit less tightly).
   int trim_threshold_bytes = 512 << 20;
 
   bool Check() const;
 };
 
 // Sets the policy. Call it first in main, before any thread starts: arenas
-// made before it stay. False when an option fails Check() or the allocator
-// refused a setting (not glibc's, or a sanitizer's, which ignores mallopt):
-// the program then runs as before, only slower.
+// made before it stay. False when an option fails Check(), the C library is
+// not glibc or it refused a setting: the program then runs as before, only
+// slower. Under ASan or TSan their allocator serves malloc whatever this sets.
 bool ApplyMallocPolicy(const MallocPolicy& policy = MallocPolicy());
 
 }  // namespace flysfm
