@@ -45,7 +45,10 @@
 // photo sets its centre error varies by a factor of two or more between
 // orders: a difference between off and on in one order says little. The
 // paired differences (on less off, per order) get the median and the sign
-// test's distribution-free 95 % interval.
+// test's distribution-free 95 % interval. Where the poses are known, each
+// order's model (refinement on) is also asked how much worse the true poses
+// fit its observations (RMS, as above): about nothing says that order's
+// error is the estimate's scatter, not a bias its observations carry.
 
 #include <algorithm>
 #include <array>
@@ -565,11 +568,24 @@ int main(int argc, char** argv) {
       // registered too little to be compared), the first as captured.
       std::vector<std::optional<double>> off_errors = {off.accuracy.error_m};
       std::vector<std::optional<double>> on_errors = {on.accuracy.error_m};
+      // Whether an order's larger error is a bias the observations carry
+      // (true poses fit them worse) or the estimate's own scatter (they fit
+      // as well as the model's poses).
+      std::vector<std::optional<PoseFit>> on_fits = {on.accuracy.pose_fit};
       for (int order = 1; order < orders; ++order) {
         DataSet shuffled = set;
         ShuffleFrames(&shuffled.frames, std::uint32_t(order));
         off_errors.push_back(RunPaced(shuffled, false, interval).accuracy.error_m);
-        on_errors.push_back(RunPaced(shuffled, true, interval).accuracy.error_m);
+        const Accuracy on_accuracy = RunPaced(shuffled, true, interval).accuracy;
+        on_errors.push_back(on_accuracy.error_m);
+        on_fits.push_back(on_accuracy.pose_fit);
+      }
+      // RMS reprojection error with the true poses over the model's own, less 1.
+      std::vector<std::optional<double>> on_fit_excess;
+      for (const std::optional<PoseFit>& fit : on_fits) {
+        on_fit_excess.push_back(fit && fit->model_rms_px > 0
+                                    ? std::optional<double>(fit->truth_rms_px / fit->model_rms_px - 1)
+                                    : std::nullopt);
       }
       std::vector<double> on_less_off_by_order;
       for (int order = 0; order < orders; ++order) {
@@ -649,6 +665,18 @@ int main(int argc, char** argv) {
         std::printf("; on less off, paired by order: median %+.2f %s, 95 %% interval [%+.2f, "
                     "%+.2f] |\n",
                     by_order[0], unit, by_order[1], by_order[2]);
+        if (!set.poses.empty()) {
+          std::printf("|   observations' RMS reprojection error with the true poses over the "
+                      "model's own, refinement on, in each order:");
+          for (const auto& excess : on_fit_excess) {
+            if (excess) {
+              std::printf(" %+.1f %%", *excess * 100);
+            } else {
+              std::printf(" -");
+            }
+          }
+          std::printf(" |\n");
+        }
       }
       std::printf("|   the model as each image arrived, error median over the %zu arrivals with 3 "
                   "images or more in both: off %.2f %s, on %.2f %s; on lower at %d |\n",
@@ -709,6 +737,13 @@ int main(int argc, char** argv) {
                            {std::string("on_") + unit, errors_json(on_errors)},
                            {"on_less_off",
                             {{"median", by_order[0]}, {"interval95", {by_order[1], by_order[2]}}}}};
+        if (!set.poses.empty()) {
+          nlohmann::json excess_json = nlohmann::json::array();
+          for (const auto& excess : on_fit_excess) {
+            excess_json.push_back(excess ? nlohmann::json(*excess) : nullptr);
+          }
+          entry["orders"]["on_true_over_own_rms_less_1"] = excess_json;
+        }
       }
       if (colmap_accuracy) {
         entry["colmap"] = {{"registered", colmap_accuracy->registered},
