@@ -20,7 +20,12 @@
 #include <string>
 #include <vector>
 
+#include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
+
+#include "bench/bench_session.h"
+#include "geometry/statistics.h"
+#include "io/run/run_loop.h"
 
 #include "core/engine.h"
 #include "core/malloc_policy.h"
@@ -28,31 +33,19 @@
 #include "io/camfi/camfi_emulator.h"
 #include "io/sources/image_source.h"
 
-namespace {
-
-// The upper median (the middle value, or the later of the two middle ones).
-double Median(std::vector<double> values) {
-  if (values.empty()) return 0;
-  const auto middle = values.begin() + std::ptrdiff_t(values.size() / 2);
-  std::nth_element(values.begin(), middle, values.end());
-  return *middle;
-}
-
-}  // namespace
-
 int main(int argc, char** argv) {
   using namespace flysfm;
   ApplyMallocPolicy();  // as flysfm does: the engine measured as it runs there
-  using Clock = std::chrono::steady_clock;
+  CLI::App app("Live capture from the CAMFI emulator, the delay from each shot to its result");
   int num_frames = 30;
   double interval = 1.0;
-  std::string data = std::getenv("FLYSFM_DATA") ? std::getenv("FLYSFM_DATA")
-                                                : FLYSFM_DEFAULT_DATA_DIR;
-  for (int i = 1; i + 1 < argc; i += 2) {
-    if (!std::strcmp(argv[i], "--frames")) num_frames = std::atoi(argv[i + 1]);
-    if (!std::strcmp(argv[i], "--interval")) interval = std::atof(argv[i + 1]);
-    if (!std::strcmp(argv[i], "--data")) data = argv[i + 1];
-  }
+  std::string data;
+  app.add_option("--frames", num_frames, "fr1_xyz frames shot")->capture_default_str();
+  app.add_option("--interval", interval, "Seconds between shots")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  bench::AddDataOption(&app, &data);
+  CLI11_PARSE(app, argc, argv);
   std::vector<Frame> frames;
   try {
     frames = ListTumSequence(data + "/tum/rgbd_dataset_freiburg1_xyz");
@@ -85,22 +78,22 @@ int main(int argc, char** argv) {
   int late = 0;
   {
     CamfiSource source(client_options, store);
-    for (std::size_t i = 0; i < frames.size(); ++i) {
-      std::optional<Frame> frame = source.Next();
-      if (!frame) break;
-      const std::vector<ImageResult> results = engine.AddImage(*frame);
-      const double delay =
-          std::chrono::duration<double, std::milli>(Clock::now() - frame->arrival).count();
+    LimitedSource limited(&source, int(frames.size()));
+    RunLoop::Options options;
+    options.print = false;
+    options.live = true;
+    const RunLoop::Summary summary = RunLoop(options).Run(&limited, &engine);
+    for (const RunLoop::Reported& reported : summary.results) {
+      if (!reported.arriving_image || !reported.delay_ms) continue;
+      const double delay = *reported.delay_ms;
       delays_ms.push_back(delay);
-      engine_ms.push_back(results.front().times.total);
+      engine_ms.push_back(reported.result.times.total);
       late += delay >= 1000 * interval;
       std::printf("%-44s %-10s engine %6.0f ms  delay file_added -> result %6.0f ms\n",
-                  frame->name.c_str(), ImageStatusName(results.front().status),
-                  results.front().times.total, delay);
-      std::fflush(stdout);
+                  reported.result.name.c_str(), ImageStatusName(reported.result.status),
+                  reported.result.times.total, delay);
     }
   }
-  engine.Finish();
   std::filesystem::remove_all(store);
   const double median_delay = Median(delays_ms);
   // The delay minus the engine's own time: download, store, journal, and

@@ -17,7 +17,7 @@
 // (photos: 3.5 s, a photographer's pace; fr3: its 1 Hz; fr1_xyz: its 30 Hz
 // and 1 s), the next prepared on the second core, refinement slices while
 // none waits (RefineUntilNextFrame), the rest of it and Finish at the end
-// (`finish_s`), as RunEngine does. COLMAP runs
+// (`finish_s`), through the run loop as `flysfm live` runs. COLMAP runs
 // exhaustive matching and its mapper with the same intrinsics held fixed,
 // on 2 threads, no GPU. Where it ran on photos, a line compares its
 // per-image centre errors with refinement on's: a large share in common
@@ -66,9 +66,12 @@
 #include <string>
 #include <vector>
 
+#include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
+#include "bench/bench_session.h"
 #include "bench/photo_session.h"
+#include "geometry/statistics.h"
 #include "core/engine.h"
 #include "core/malloc_policy.h"
 #include "io/evaluation/evaluation.h"
@@ -76,7 +79,6 @@
 #include "io/formats/trajectory.h"
 #include "io/run/run_writer.h"
 #include "io/sources/image_source.h"
-#include "io/sources/prepared_source.h"
 #include "tests/testing/datasets.h"
 
 namespace flysfm {
@@ -189,11 +191,6 @@ std::optional<SharedError> CompareErrors(const Accuracy& a, const Accuracy& b) {
   return SharedError{ab / std::sqrt(aa * bb), std::sqrt(difference / count)};
 }
 
-double Percentile(std::vector<double> values, double p) {
-  if (values.empty()) return 0;
-  std::sort(values.begin(), values.end());
-  return values[std::size_t(p * double(values.size() - 1) + 0.5)];
-}
 
 struct Run {
   Accuracy accuracy;
@@ -221,47 +218,36 @@ std::vector<double> OwnMs(const Run& run) {
   return own_ms;
 }
 
+// Through the run loop, as `flysfm live` runs: one image every `interval_s`,
+// refinement slices while none waits, what is left of it and Finish at the
+// end.
 Run RunPaced(const DataSet& set, bool refine, double interval_s) {
-  const auto start = std::chrono::steady_clock::now();
   Engine::Options options;
   options.refinement.enabled = refine;
   Engine engine(options, set.camera.empty()
                              ? std::nullopt
                              : std::optional<Camera>(Camera::FromString(set.camera, 0, 0)));
-  FrameListSource source(set.frames, interval_s);
-  PreparedFrameSource prepared(&source, engine.options());
-  std::map<std::string, std::chrono::steady_clock::time_point> arrivals;
-  Run run;
-  const auto note = [&](const std::vector<ImageResult>& results, bool on_arrival) {
-    const auto now = std::chrono::steady_clock::now();
-    for (const ImageResult& result : results) {
-      if (result.status != ImageStatus::kRegistered) continue;
-      const double latency =
-          std::chrono::duration<double, std::milli>(now - arrivals.at(result.name)).count();
-      run.latency_ms.push_back(latency);
-      if (!on_arrival || result.name != results.front().name) continue;
-      const StageTimes& times = result.times;
-      run.own_times.push_back(times);
-      run.own_ms_by_name[result.name] = OwnMs(times);
-      run.delay_ms.push_back(latency - times.total);
-    }
-  };
   std::vector<ModelCentres> live;
-  while (true) {
-    RefineUntilNextFrame(&engine, prepared, 1.0,
-                         [&](Engine::RefinementSlice* slice) { note(slice->registered, false); });
-    std::optional<PreparedFrame> frame = prepared.Next();
-    if (!frame) break;
+  bench::SessionOptions session_options;
+  session_options.run.print = false;
+  session_options.interval_s = interval_s;
+  session_options.hooks.on_arrival = [&](const Engine& engine, const PreparedFrame&) {
     live.push_back(CentresOf(engine.reconstruction(), set));
-    arrivals[frame->frame.name] = frame->frame.arrival;
-    note(engine.AddImage(std::move(*frame)), true);
+  };
+  const bench::Session session = bench::RunSession(&engine, set.frames, session_options);
+  Run run;
+  for (const RunLoop::Reported& reported : session.run.results) {
+    const ImageResult& result = reported.result;
+    if (result.status != ImageStatus::kRegistered || !reported.delay_ms) continue;
+    run.latency_ms.push_back(*reported.delay_ms);
+    // Of the images registered on arrival, their own call's result.
+    if (!reported.arriving_image) continue;
+    run.own_times.push_back(result.times);
+    run.own_ms_by_name[result.name] = OwnMs(result.times);
+    run.delay_ms.push_back(*reported.delay_ms - result.times.total);
   }
-  const auto finish_start = std::chrono::steady_clock::now();
-  note(engine.RefineToEnd(), false);
-  engine.Finish();
-  const auto end = std::chrono::steady_clock::now();
-  run.finish_s = std::chrono::duration<double>(end - finish_start).count();
-  run.wall_s = std::chrono::duration<double>(end - start).count();
+  run.finish_s = session.run.end_s;
+  run.wall_s = session.run.wall_s;
   run.accuracy = Evaluate(engine.reconstruction(), set);
   for (const ModelCentres& centres : live) run.live_error_m.push_back(ErrorOf(centres, set));
   run.refinement = engine.refinement_totals();
@@ -310,13 +296,6 @@ std::optional<Accuracy> RunColmap(const DataSet& set, const fs::path& work, doub
   *seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   if (!fs::exists(work / "sparse" / "0")) return std::nullopt;
   return Evaluate(ReadColmapModel(work / "sparse" / "0"), set);
-}
-
-std::vector<std::string> Split(const std::string& text) {
-  std::vector<std::string> parts;
-  std::stringstream stream(text);
-  for (std::string part; std::getline(stream, part, ',');) parts.push_back(part);
-  return parts;
 }
 
 // One of the shared photo sets, COLMAP reading the folder its images are in.
@@ -404,7 +383,7 @@ std::array<double, 3> MedianWithInterval(std::vector<double> values) {
     if (at_most > 0.025) break;
     k = i;
   }
-  return {Percentile(values, 0.5), values[k], values[n - 1 - k]};
+  return {Median(values), values[k], values[n - 1 - k]};
 }
 
 // The median of each of the images' own stages (after SIFT), by name.
@@ -414,7 +393,7 @@ std::vector<std::pair<const char*, double>> OwnStageMedians(const Run& run) {
     if (stage == &StageTimes::decode || stage == &StageTimes::features) continue;
     std::vector<double> values;
     for (const StageTimes& times : run.own_times) values.push_back(times.*stage);
-    medians.emplace_back(name, Percentile(values, 0.5));
+    medians.emplace_back(name, Median(values));
   }
   return medians;
 }
@@ -426,27 +405,21 @@ nlohmann::json ToJson(const Run& run, const char* unit, double scale) {
           {std::string("error_") + unit,
            run.accuracy.error_m ? nlohmann::json(*run.accuracy.error_m * scale) : nullptr},
           {"latency_ms",
-           {{"median", Percentile(run.latency_ms, 0.5)},
-            {"p95", Percentile(run.latency_ms, 0.95)},
-            {"max", Percentile(run.latency_ms, 1.0)}}},
+           {{"median", Median(run.latency_ms)},
+            {"p95", Quantile(run.latency_ms, 0.95)},
+            {"max", Quantile(run.latency_ms, 1.0)}}},
           {"own_ms",
-           {{"median", Percentile(OwnMs(run), 0.5)}, {"p95", Percentile(OwnMs(run), 0.95)}}},
+           {{"median", Quantile(OwnMs(run), 0.5)}, {"p95", Quantile(OwnMs(run), 0.95)}}},
           {"own_stage_median_ms", own_stages},
           {"delay_ms",
-           {{"median", Percentile(run.delay_ms, 0.5)}, {"p95", Percentile(run.delay_ms, 0.95)}}},
+           {{"median", Quantile(run.delay_ms, 0.5)}, {"p95", Quantile(run.delay_ms, 0.95)}}},
           {"refinement", ToJson(run.refinement)},
           {"finish_s", run.finish_s},
           {"wall_s", run.wall_s}};
 }
 
-}  // namespace
-}  // namespace flysfm
-
-int main(int argc, char** argv) {
-  using namespace flysfm;
-  ApplyMallocPolicy();  // as flysfm does: the engine measured as it runs there
-  std::string data = std::getenv("FLYSFM_DATA") ? std::getenv("FLYSFM_DATA")
-                                                : FLYSFM_DEFAULT_DATA_DIR;
+struct Flags {
+  std::string data;
   std::vector<std::string> sets = {"fountain", "temple", "rendered", "fr3", "fr1"};
   int rendered_photos = 40;
   double interval_s = 3.5;
@@ -454,75 +427,306 @@ int main(int argc, char** argv) {
   int fr1_frames = 330;
   int repeat = 1;
   int orders = 1;
-  bool colmap = std::system("command -v colmap > /dev/null 2>&1") == 0;
-  fs::path work = fs::temp_directory_path() / "bench_refine";
-  for (int i = 1; i < argc; ++i) {
-    const bool has_value = i + 1 < argc;
-    if (!std::strcmp(argv[i], "--data") && has_value) {
-      data = argv[++i];
-    } else if (!std::strcmp(argv[i], "--sets") && has_value) {
-      sets = Split(argv[++i]);
-    } else if (!std::strcmp(argv[i], "--interval") && has_value) {
-      interval_s = std::atof(argv[++i]);
-    } else if (!std::strcmp(argv[i], "--fr1-intervals") && has_value) {
-      fr1_intervals_s.clear();
-      for (const std::string& value : Split(argv[++i])) fr1_intervals_s.push_back(std::stod(value));
-    } else if (!std::strcmp(argv[i], "--rendered-photos") && has_value &&
-               std::atoi(argv[i + 1]) >= 2) {
-      rendered_photos = std::atoi(argv[++i]);
-    } else if (!std::strcmp(argv[i], "--fr1-frames") && has_value) {
-      fr1_frames = std::atoi(argv[++i]);
-    } else if (!std::strcmp(argv[i], "--repeat") && has_value && std::atoi(argv[i + 1]) > 0) {
-      repeat = std::atoi(argv[++i]);
-    } else if (!std::strcmp(argv[i], "--orders") && has_value && std::atoi(argv[i + 1]) > 0) {
-      orders = std::atoi(argv[++i]);
-    } else if (!std::strcmp(argv[i], "--no-colmap")) {
-      colmap = false;
-    } else if (!std::strcmp(argv[i], "--work") && has_value) {
-      work = argv[++i];
+  bool no_colmap = false;
+  std::string work = (fs::temp_directory_path() / "bench_refine").string();
+};
+
+// The set `key` names; std::invalid_argument for an unknown key, and what
+// reading the data throws.
+DataSet MakeSet(const std::string& key, const Flags& flags) {
+  const fs::path data = flags.data;
+  if (key == "fountain") return Photos(testing::FountainP11(data), flags.interval_s);
+  if (key == "temple") return Photos(testing::TempleRing19(data), flags.interval_s);
+  if (key == "rendered") {
+    return Rendered(flags.rendered_photos, fs::path(flags.work) / "rendered_photos",
+                    flags.interval_s);
+  }
+  if (key == "fr3") {
+    return Tum(data / "tum/rgbd_dataset_freiburg3_long_office_household_superglue17",
+               "fr3 17 frames", "PINHOLE 535.4,539.2,320.1,247.6", {1.0}, 0, true);
+  }
+  const fs::path fr1 = data / "tum/rgbd_dataset_freiburg1_xyz";
+  // COLMAP 3.8 fails on this calibration (docs/peers.md); ORB-SLAM's 0.90 cm
+  // is the figure to beat.
+  if (key == "fr1") {
+    return Tum(fr1, "fr1_xyz",
+               "FULL_OPENCV 517.3,516.5,318.6,255.3,0.2624,-0.9531,-0.0054,0.0026,1.1633,0,0,0",
+               flags.fr1_intervals_s, flags.fr1_frames, false);
+  }
+  // The same frames self-calibrating: a narrow baseline never settles the
+  // focal length, so the schedule's global BAs run to the end.
+  if (key == "fr1nok") {
+    return Tum(fr1, "fr1_xyz without K", "", flags.fr1_intervals_s, flags.fr1_frames, false);
+  }
+  throw std::invalid_argument("unknown set " + key);
+}
+
+// Refinement off against on on one set at one interval.
+struct Comparison {
+  Run off, on;
+  // Each image's own stages on less off, paired by image and repeat, and
+  // each repeat's median of them.
+  std::vector<double> own_on_less_off;
+  std::vector<double> repeat_medians;
+  std::array<double, 3> own_difference{};
+  // The error off and on in each capture order (missing where a run
+  // registered too little to be compared), the first as captured; whether
+  // an order's larger error is a bias the observations carry (true poses
+  // fit them worse: RMS with the true poses over the model's own, less 1)
+  // or the estimate's own scatter.
+  std::vector<std::optional<double>> off_errors, on_errors, on_fit_excess;
+  std::array<double, 3> by_order{};
+  // The model as each image arrived, off and on (as captured), paired by
+  // arrival. One run's arrivals are not independent samples (each model
+  // grows from the one before), so no interval: how often on was lower.
+  std::vector<double> live_off, live_on;
+  int live_on_lower = 0;
+};
+
+void RunRepeats(const DataSet& set, double interval, int repeat, Comparison* c) {
+  for (int r = 0; r < repeat; ++r) {
+    // Every second repeat runs on first, so that whatever the order of two
+    // runs in one process does to their times falls on both alike.
+    Run off_repeat, on_repeat;
+    if (r % 2 == 0) {
+      off_repeat = RunPaced(set, false, interval);
+      on_repeat = RunPaced(set, true, interval);
     } else {
-      std::cerr << "usage: bench_refine [--data DIR] "
-                   "[--sets fountain,temple,rendered,fr3,fr1,fr1nok] [--interval S] "
-                   "[--rendered-photos N] [--fr1-intervals S,S] [--fr1-frames N] [--repeat N] "
-                   "[--orders N] [--no-colmap] "
-                   "[--work DIR]\n";
-      return 2;
+      on_repeat = RunPaced(set, true, interval);
+      off_repeat = RunPaced(set, false, interval);
+    }
+    std::vector<double> differences;
+    for (const auto& [name, ms] : on_repeat.own_ms_by_name) {
+      const auto it = off_repeat.own_ms_by_name.find(name);
+      if (it != off_repeat.own_ms_by_name.end()) differences.push_back(ms - it->second);
+    }
+    c->repeat_medians.push_back(Median(differences));
+    c->own_on_less_off.insert(c->own_on_less_off.end(), differences.begin(), differences.end());
+    if (r == 0) {
+      c->off = off_repeat;
+      c->on = on_repeat;
+    } else {
+      Pool(off_repeat, &c->off);
+      Pool(on_repeat, &c->on);
     }
   }
+  c->own_difference = MedianWithInterval(c->own_on_less_off);
+}
 
+void RunOrders(const DataSet& set, double interval, int orders, double scale, Comparison* c) {
+  c->off_errors = {c->off.accuracy.error_m};
+  c->on_errors = {c->on.accuracy.error_m};
+  std::vector<std::optional<PoseFit>> on_fits = {c->on.accuracy.pose_fit};
+  for (int order = 1; order < orders; ++order) {
+    DataSet shuffled = set;
+    ShuffleFrames(&shuffled.frames, std::uint32_t(order));
+    c->off_errors.push_back(RunPaced(shuffled, false, interval).accuracy.error_m);
+    const Accuracy on_accuracy = RunPaced(shuffled, true, interval).accuracy;
+    c->on_errors.push_back(on_accuracy.error_m);
+    on_fits.push_back(on_accuracy.pose_fit);
+  }
+  for (const std::optional<PoseFit>& fit : on_fits) {
+    c->on_fit_excess.push_back(
+        fit && fit->model_rms_px > 0
+            ? std::optional<double>(fit->truth_rms_px / fit->model_rms_px - 1)
+            : std::nullopt);
+  }
+  std::vector<double> on_less_off;
+  for (int order = 0; order < orders; ++order) {
+    if (c->off_errors[order] && c->on_errors[order]) {
+      on_less_off.push_back((*c->on_errors[order] - *c->off_errors[order]) * scale);
+    }
+  }
+  c->by_order = MedianWithInterval(on_less_off);
+}
+
+void CompareLive(double scale, Comparison* c) {
+  const std::size_t n = std::min(c->off.live_error_m.size(), c->on.live_error_m.size());
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::optional<double>& error_off = c->off.live_error_m[i];
+    const std::optional<double>& error_on = c->on.live_error_m[i];
+    if (!error_off || !error_on) continue;
+    c->live_off.push_back(*error_off * scale);
+    c->live_on.push_back(*error_on * scale);
+    c->live_on_lower += *error_on < *error_off;
+  }
+}
+
+// "1.23 mm", or "-" without an error.
+std::string ErrorText(const std::optional<double>& error_m, double scale, const char* unit) {
+  char text[32] = "-";
+  if (error_m) std::snprintf(text, sizeof(text), "%.2f %s", *error_m * scale, unit);
+  return text;
+}
+
+std::string LatencyText(const Run& run) {
+  char text[96];
+  std::snprintf(text, sizeof(text), "%.0f / %.0f / %.0f (own %.0f, waited %.0f / %.0f)",
+                Median(run.latency_ms), Quantile(run.latency_ms, 0.95),
+                Quantile(run.latency_ms, 1.0), Median(OwnMs(run)), Median(run.delay_ms),
+                Quantile(run.delay_ms, 0.95));
+  return text;
+}
+
+std::string FitText(const std::optional<PoseFit>& fit) {
+  char text[80] = "-";
+  if (fit) {
+    std::snprintf(text, sizeof(text), "%.3f / %.3f px", fit->model_median_px,
+                  fit->truth_median_px);
+  }
+  return text;
+}
+
+void PrintOrders(const DataSet& set, const Comparison& c, int orders, double scale,
+                 const char* unit) {
+  std::printf("|   error in %d capture orders (as captured, then shuffled): off", orders);
+  const auto print_errors = [&](const std::vector<std::optional<double>>& errors) {
+    std::vector<double> known;
+    for (const auto& error_m : errors) {
+      std::printf(" %s", ErrorText(error_m, scale, unit).c_str());
+      if (error_m) known.push_back(*error_m * scale);
+    }
+    if (!known.empty()) std::printf(" (mean %.2f %s)", Mean(known), unit);
+  };
+  print_errors(c.off_errors);
+  std::printf("; on");
+  print_errors(c.on_errors);
+  std::printf("; on less off, paired by order: median %+.2f %s, 95 %% interval [%+.2f, %+.2f] "
+              "|\n",
+              c.by_order[0], unit, c.by_order[1], c.by_order[2]);
+  if (set.poses.empty()) return;
+  std::printf("|   observations' RMS reprojection error with the true poses over the model's "
+              "own, refinement on, in each order:");
+  for (const auto& excess : c.on_fit_excess) {
+    if (excess) {
+      std::printf(" %+.1f %%", *excess * 100);
+    } else {
+      std::printf(" -");
+    }
+  }
+  std::printf(" |\n");
+}
+
+void PrintComparison(const DataSet& set, double interval, const Comparison& c,
+                     const std::optional<Accuracy>& colmap, double colmap_s, bool colmap_run,
+                     int repeat, int orders, double scale, const char* unit) {
+  std::string colmap_text = colmap_run ? "failed" : "not run";
+  if (colmap) {
+    colmap_text = ErrorText(colmap->error_m, scale, unit) + " (" +
+                  std::to_string(colmap->registered) + " reg., " +
+                  std::to_string(int(colmap_s)) + " s)";
+  }
+  const Engine::RefinementTotals& refinement = c.on.refinement;
+  std::printf("| %s | %.3g s | %d / %d of %zu | %s | %s | %s | %s | %s | %d, %d / %d (%d "
+              "linked), %d, %.1f |\n",
+              set.name.c_str(), interval, c.off.accuracy.registered, c.on.accuracy.registered,
+              set.frames.size(), ErrorText(c.off.accuracy.error_m, scale, unit).c_str(),
+              ErrorText(c.on.accuracy.error_m, scale, unit).c_str(), colmap_text.c_str(),
+              LatencyText(c.off).c_str(), LatencyText(c.on).c_str(), refinement.num_slices,
+              refinement.num_pairs_verified, refinement.num_pairs_tried,
+              refinement.num_pairs_linked, refinement.num_global_bas, refinement.ms / 1000);
+  std::printf("|   own stages' medians, ms off / on: ");
+  const auto off_stages = OwnStageMedians(c.off);
+  const auto on_stages = OwnStageMedians(c.on);
+  for (std::size_t i = 0; i < off_stages.size(); ++i) {
+    std::printf("%s%s %.1f / %.1f", i ? ", " : "", off_stages[i].first, off_stages[i].second,
+                on_stages[i].second);
+  }
+  std::printf(" |\n|   own stages on less off, paired by image (%zu pairs, %d repeat%s): median "
+              "%+.1f ms, 95 %% interval [%+.1f, %+.1f]; each repeat's median:",
+              c.own_on_less_off.size(), repeat, repeat > 1 ? "s" : "", c.own_difference[0],
+              c.own_difference[1], c.own_difference[2]);
+  for (const double median : c.repeat_medians) std::printf(" %+.1f", median);
+  std::printf(" |\n");
+  if (orders > 1) PrintOrders(set, c, orders, scale, unit);
+  std::printf("|   the model as each image arrived, error median over the %zu arrivals with 3 "
+              "images or more in both: off %.2f %s, on %.2f %s; on lower at %d |\n",
+              c.live_off.size(), Median(c.live_off), unit, Median(c.live_on), unit,
+              c.live_on_lower);
+  if (colmap) {
+    if (const std::optional<SharedError> shared = CompareErrors(c.on.accuracy, *colmap)) {
+      std::printf("|   centre errors, refinement on and COLMAP, per image: correlation %.2f, "
+                  "RMS of their difference %.2f %s |\n",
+                  shared->correlation, shared->difference_rms_m * scale, unit);
+    }
+  }
+  if (c.on.accuracy.pose_fit) {
+    std::printf("|   observations' reprojection error, median, with the model's own poses / "
+                "with the true poses: refinement on %s, COLMAP %s |\n",
+                FitText(c.on.accuracy.pose_fit).c_str(),
+                FitText(colmap ? colmap->pose_fit : std::nullopt).c_str());
+  }
+  std::fflush(stdout);
+}
+
+nlohmann::json OptionalJson(const std::optional<double>& value, double scale = 1) {
+  return value ? nlohmann::json(*value * scale) : nlohmann::json(nullptr);
+}
+
+nlohmann::json FitJson(const std::optional<PoseFit>& fit) {
+  if (!fit) return nullptr;
+  return {{"own_median_px", fit->model_median_px}, {"true_median_px", fit->truth_median_px}};
+}
+
+nlohmann::json ComparisonJson(const DataSet& set, double interval, const Comparison& c,
+                              const std::optional<Accuracy>& colmap, double colmap_s, int repeat,
+                              int orders, double scale, const std::string& unit) {
+  nlohmann::json entry = {{"set", set.name},
+                          {"images", set.frames.size()},
+                          {"interval_s", interval},
+                          {"off", ToJson(c.off, unit.c_str(), scale)},
+                          {"on", ToJson(c.on, unit.c_str(), scale)},
+                          {"repeats", repeat},
+                          {"own_on_less_off_ms",
+                           {{"median", c.own_difference[0]},
+                            {"interval95", {c.own_difference[1], c.own_difference[2]}},
+                            {"pairs", c.own_on_less_off.size()},
+                            {"repeat_medians", c.repeat_medians}}}};
+  if (c.on.accuracy.pose_fit) entry["on"]["pose_fit"] = FitJson(c.on.accuracy.pose_fit);
+  entry["live"] = {{"arrivals", c.live_off.size()},
+                   {"off_median_" + unit, Median(c.live_off)},
+                   {"on_median_" + unit, Median(c.live_on)},
+                   {"on_lower", c.live_on_lower}};
+  if (orders > 1) {
+    const auto errors_json = [&](const std::vector<std::optional<double>>& errors) {
+      nlohmann::json values = nlohmann::json::array();
+      for (const auto& error_m : errors) values.push_back(OptionalJson(error_m, scale));
+      return values;
+    };
+    entry["orders"] = {{"off_" + unit, errors_json(c.off_errors)},
+                       {"on_" + unit, errors_json(c.on_errors)},
+                       {"on_less_off",
+                        {{"median", c.by_order[0]}, {"interval95", {c.by_order[1], c.by_order[2]}}}}};
+    if (!set.poses.empty()) {
+      nlohmann::json excess = nlohmann::json::array();
+      for (const auto& value : c.on_fit_excess) excess.push_back(OptionalJson(value));
+      entry["orders"]["on_true_over_own_rms_less_1"] = excess;
+    }
+  }
+  if (colmap) {
+    entry["colmap"] = {{"registered", colmap->registered},
+                       {"error_" + unit, OptionalJson(colmap->error_m, scale)},
+                       {"seconds", colmap_s},
+                       {"pose_fit", FitJson(colmap->pose_fit)}};
+    if (const std::optional<SharedError> shared = CompareErrors(c.on.accuracy, *colmap)) {
+      entry["colmap"]["error_correlation_with_on"] = shared->correlation;
+      entry["colmap"]["error_difference_from_on_" + unit] = shared->difference_rms_m * scale;
+    }
+  }
+  return entry;
+}
+
+int Main(const Flags& flags) {
+  const bool colmap = !flags.no_colmap && std::system("command -v colmap > /dev/null 2>&1") == 0;
   nlohmann::json json = {{"bench", "refine"}, {"sets", nlohmann::json::array()}};
   std::printf("| set | interval | registered off / on | error off | error on | COLMAP 3.8 | "
               "latency ms off: median / p95 / max (own stages after SIFT: median; waited: "
               "median / p95) | on | refinement: slices, pairs verified / tried (linked, not "
               "tried), global BAs, s |\n|---|---|---|---|---|---|---|---|---|\n");
-  for (const std::string& key : sets) {
+  for (const std::string& key : flags.sets) {
     DataSet set;
     try {
-      if (key == "fountain") {
-        set = Photos(testing::FountainP11(data), interval_s);
-      } else if (key == "temple") {
-        set = Photos(testing::TempleRing19(data), interval_s);
-      } else if (key == "rendered") {
-        set = Rendered(rendered_photos, work / "rendered_photos", interval_s);
-      } else if (key == "fr3") {
-        set = Tum(fs::path(data) / "tum/rgbd_dataset_freiburg3_long_office_household_superglue17",
-                  "fr3 17 frames", "PINHOLE 535.4,539.2,320.1,247.6", {1.0}, 0, true);
-      } else if (key == "fr1") {
-        // COLMAP 3.8 fails on this calibration (ANCHORS.md); ORB-SLAM's 0.90 cm
-        // is the figure to beat.
-        set = Tum(fs::path(data) / "tum/rgbd_dataset_freiburg1_xyz", "fr1_xyz",
-                  "FULL_OPENCV 517.3,516.5,318.6,255.3,0.2624,-0.9531,-0.0054,0.0026,1.1633,"
-                  "0,0,0",
-                  fr1_intervals_s, fr1_frames, false);
-      } else if (key == "fr1nok") {
-        // The same frames self-calibrating: a narrow baseline never settles
-        // the focal length, so the schedule's global BAs run to the end.
-        set = Tum(fs::path(data) / "tum/rgbd_dataset_freiburg1_xyz", "fr1_xyz without K", "",
-                  fr1_intervals_s, fr1_frames, false);
-      } else {
-        std::cerr << "bench_refine: unknown set " << key << "\n";
-        return 2;
-      }
+      set = MakeSet(key, flags);
     } catch (const std::exception& e) {
       std::cerr << "bench_refine: " << e.what() << " (set FLYSFM_DATA or --data)\n";
       return 2;
@@ -532,236 +736,56 @@ int main(int argc, char** argv) {
     const double scale = photos ? 1000 : 100;
     std::optional<Accuracy> colmap_accuracy;
     double colmap_s = 0;
-    if (colmap && set.colmap) colmap_accuracy = RunColmap(set, work / key, &colmap_s);
+    if (colmap && set.colmap) {
+      colmap_accuracy = RunColmap(set, fs::path(flags.work) / key, &colmap_s);
+    }
     for (const double interval : set.intervals_s) {
-      Run off, on;
-      std::vector<double> own_on_less_off;
-      std::vector<double> repeat_medians;  // of each repeat's differences
-      for (int r = 0; r < repeat; ++r) {
-        // Every second repeat runs on first, so that whatever the order of
-        // two runs in one process does to their times falls on both alike.
-        Run off_repeat, on_repeat;
-        if (r % 2 == 0) {
-          off_repeat = RunPaced(set, false, interval);
-          on_repeat = RunPaced(set, true, interval);
-        } else {
-          on_repeat = RunPaced(set, true, interval);
-          off_repeat = RunPaced(set, false, interval);
-        }
-        std::vector<double> differences;
-        for (const auto& [name, ms] : on_repeat.own_ms_by_name) {
-          const auto it = off_repeat.own_ms_by_name.find(name);
-          if (it != off_repeat.own_ms_by_name.end()) differences.push_back(ms - it->second);
-        }
-        repeat_medians.push_back(Percentile(differences, 0.5));
-        own_on_less_off.insert(own_on_less_off.end(), differences.begin(), differences.end());
-        if (r == 0) {
-          off = off_repeat;
-          on = on_repeat;
-        } else {
-          Pool(off_repeat, &off);
-          Pool(on_repeat, &on);
-        }
-      }
-      const std::array<double, 3> own_difference = MedianWithInterval(own_on_less_off);
-      // The error off and on in each capture order (missing where a run
-      // registered too little to be compared), the first as captured.
-      std::vector<std::optional<double>> off_errors = {off.accuracy.error_m};
-      std::vector<std::optional<double>> on_errors = {on.accuracy.error_m};
-      // Whether an order's larger error is a bias the observations carry
-      // (true poses fit them worse) or the estimate's own scatter (they fit
-      // as well as the model's poses).
-      std::vector<std::optional<PoseFit>> on_fits = {on.accuracy.pose_fit};
-      for (int order = 1; order < orders; ++order) {
-        DataSet shuffled = set;
-        ShuffleFrames(&shuffled.frames, std::uint32_t(order));
-        off_errors.push_back(RunPaced(shuffled, false, interval).accuracy.error_m);
-        const Accuracy on_accuracy = RunPaced(shuffled, true, interval).accuracy;
-        on_errors.push_back(on_accuracy.error_m);
-        on_fits.push_back(on_accuracy.pose_fit);
-      }
-      // RMS reprojection error with the true poses over the model's own, less 1.
-      std::vector<std::optional<double>> on_fit_excess;
-      for (const std::optional<PoseFit>& fit : on_fits) {
-        on_fit_excess.push_back(fit && fit->model_rms_px > 0
-                                    ? std::optional<double>(fit->truth_rms_px / fit->model_rms_px - 1)
-                                    : std::nullopt);
-      }
-      std::vector<double> on_less_off_by_order;
-      for (int order = 0; order < orders; ++order) {
-        if (off_errors[order] && on_errors[order]) {
-          on_less_off_by_order.push_back((*on_errors[order] - *off_errors[order]) * scale);
-        }
-      }
-      const std::array<double, 3> by_order = MedianWithInterval(on_less_off_by_order);
-      // The model as each image arrived, off and on (as captured), paired by
-      // arrival. One run's arrivals are not independent samples (each model
-      // grows from the one before), so no interval: how often on was lower.
-      std::vector<double> live_off, live_on;
-      int live_on_lower = 0;
-      for (std::size_t i = 0; i < std::min(off.live_error_m.size(), on.live_error_m.size()); ++i) {
-        const std::optional<double>& error_off = off.live_error_m[i];
-        const std::optional<double>& error_on = on.live_error_m[i];
-        if (!error_off || !error_on) continue;
-        live_off.push_back(*error_off * scale);
-        live_on.push_back(*error_on * scale);
-        live_on_lower += *error_on < *error_off;
-      }
-      const auto error = [&](const std::optional<double>& error_m) {
-        char text[32] = "-";
-        if (error_m) std::snprintf(text, sizeof(text), "%.2f %s", *error_m * scale, unit);
-        return std::string(text);
-      };
-      const auto latency = [](const Run& run) {
-        char text[96];
-        std::snprintf(text, sizeof(text), "%.0f / %.0f / %.0f (own %.0f, waited %.0f / %.0f)",
-                      Percentile(run.latency_ms, 0.5), Percentile(run.latency_ms, 0.95),
-                      Percentile(run.latency_ms, 1.0), Percentile(OwnMs(run), 0.5),
-                      Percentile(run.delay_ms, 0.5), Percentile(run.delay_ms, 0.95));
-        return std::string(text);
-      };
-      std::string colmap_text = colmap && set.colmap ? "failed" : "not run";
-      if (colmap_accuracy) {
-        colmap_text = error(colmap_accuracy->error_m) + " (" +
-                      std::to_string(colmap_accuracy->registered) + " reg., " +
-                      std::to_string(int(colmap_s)) + " s)";
-      }
-      std::printf("| %s | %.3g s | %d / %d of %zu | %s | %s | %s | %s | %s | %d, %d / %d "
-                  "(%d linked), %d, %.1f |\n",
-                  set.name.c_str(), interval, off.accuracy.registered, on.accuracy.registered,
-                  set.frames.size(), error(off.accuracy.error_m).c_str(),
-                  error(on.accuracy.error_m).c_str(), colmap_text.c_str(), latency(off).c_str(),
-                  latency(on).c_str(), on.refinement.num_slices,
-                  on.refinement.num_pairs_verified, on.refinement.num_pairs_tried,
-                  on.refinement.num_pairs_linked, on.refinement.num_global_bas,
-                  on.refinement.ms / 1000);
-      std::printf("|   own stages' medians, ms off / on: ");
-      const auto off_stages = OwnStageMedians(off);
-      const auto on_stages = OwnStageMedians(on);
-      for (std::size_t i = 0; i < off_stages.size(); ++i) {
-        std::printf("%s%s %.1f / %.1f", i ? ", " : "", off_stages[i].first, off_stages[i].second,
-                    on_stages[i].second);
-      }
-      std::printf(" |\n|   own stages on less off, paired by image (%zu pairs, %d repeat%s): "
-                  "median %+.1f ms, 95 %% interval [%+.1f, %+.1f]; each repeat's median:",
-                  own_on_less_off.size(), repeat, repeat > 1 ? "s" : "", own_difference[0],
-                  own_difference[1], own_difference[2]);
-      for (const double median : repeat_medians) std::printf(" %+.1f", median);
-      std::printf(" |\n");
-      if (orders > 1) {
-        std::printf("|   error in %d capture orders (as captured, then shuffled): off", orders);
-        const auto print_errors = [&](const std::vector<std::optional<double>>& errors) {
-          double sum = 0;
-          int count = 0;
-          for (const auto& error_m : errors) {
-            std::printf(" %s", error(error_m).c_str());
-            if (error_m) sum += *error_m, ++count;
-          }
-          if (count > 0) std::printf(" (mean %.2f %s)", sum / count * scale, unit);
-        };
-        print_errors(off_errors);
-        std::printf("; on");
-        print_errors(on_errors);
-        std::printf("; on less off, paired by order: median %+.2f %s, 95 %% interval [%+.2f, "
-                    "%+.2f] |\n",
-                    by_order[0], unit, by_order[1], by_order[2]);
-        if (!set.poses.empty()) {
-          std::printf("|   observations' RMS reprojection error with the true poses over the "
-                      "model's own, refinement on, in each order:");
-          for (const auto& excess : on_fit_excess) {
-            if (excess) {
-              std::printf(" %+.1f %%", *excess * 100);
-            } else {
-              std::printf(" -");
-            }
-          }
-          std::printf(" |\n");
-        }
-      }
-      std::printf("|   the model as each image arrived, error median over the %zu arrivals with 3 "
-                  "images or more in both: off %.2f %s, on %.2f %s; on lower at %d |\n",
-                  live_off.size(), Percentile(live_off, 0.5), unit, Percentile(live_on, 0.5),
-                  unit, live_on_lower);
-      std::optional<SharedError> shared;
-      if (colmap_accuracy) shared = CompareErrors(on.accuracy, *colmap_accuracy);
-      if (shared) {
-        std::printf("|   centre errors, refinement on and COLMAP, per image: correlation "
-                    "%.2f, RMS of their difference %.2f %s |\n",
-                    shared->correlation, shared->difference_rms_m * scale, unit);
-      }
-      const auto fit_text = [](const std::optional<PoseFit>& fit) {
-        char text[80] = "-";
-        if (fit) {
-          std::snprintf(text, sizeof(text), "%.3f / %.3f px", fit->model_median_px,
-                        fit->truth_median_px);
-        }
-        return std::string(text);
-      };
-      if (on.accuracy.pose_fit) {
-        std::printf("|   observations' reprojection error, median, with the model's own poses / "
-                    "with the true poses: refinement on %s, COLMAP %s |\n",
-                    fit_text(on.accuracy.pose_fit).c_str(),
-                    fit_text(colmap_accuracy ? colmap_accuracy->pose_fit : std::nullopt).c_str());
-      }
-      std::fflush(stdout);
-      nlohmann::json entry = {{"set", set.name},
-                              {"images", set.frames.size()},
-                              {"interval_s", interval},
-                              {"off", ToJson(off, unit, scale)},
-                              {"on", ToJson(on, unit, scale)},
-                              {"repeats", repeat},
-                              {"own_on_less_off_ms",
-                               {{"median", own_difference[0]},
-                                {"interval95", {own_difference[1], own_difference[2]}},
-                                {"pairs", own_on_less_off.size()},
-                                {"repeat_medians", repeat_medians}}}};
-      const auto fit_json = [](const std::optional<PoseFit>& fit) {
-        if (!fit) return nlohmann::json(nullptr);
-        return nlohmann::json{{"own_median_px", fit->model_median_px},
-                              {"true_median_px", fit->truth_median_px}};
-      };
-      if (on.accuracy.pose_fit) entry["on"]["pose_fit"] = fit_json(on.accuracy.pose_fit);
-      entry["live"] = {{"arrivals", live_off.size()},
-                       {std::string("off_median_") + unit, Percentile(live_off, 0.5)},
-                       {std::string("on_median_") + unit, Percentile(live_on, 0.5)},
-                       {"on_lower", live_on_lower}};
-      if (orders > 1) {
-        const auto errors_json = [&](const std::vector<std::optional<double>>& errors) {
-          nlohmann::json values = nlohmann::json::array();
-          for (const auto& error_m : errors) {
-            values.push_back(error_m ? nlohmann::json(*error_m * scale) : nullptr);
-          }
-          return values;
-        };
-        entry["orders"] = {{std::string("off_") + unit, errors_json(off_errors)},
-                           {std::string("on_") + unit, errors_json(on_errors)},
-                           {"on_less_off",
-                            {{"median", by_order[0]}, {"interval95", {by_order[1], by_order[2]}}}}};
-        if (!set.poses.empty()) {
-          nlohmann::json excess_json = nlohmann::json::array();
-          for (const auto& excess : on_fit_excess) {
-            excess_json.push_back(excess ? nlohmann::json(*excess) : nullptr);
-          }
-          entry["orders"]["on_true_over_own_rms_less_1"] = excess_json;
-        }
-      }
-      if (colmap_accuracy) {
-        entry["colmap"] = {{"registered", colmap_accuracy->registered},
-                           {std::string("error_") + unit,
-                            colmap_accuracy->error_m
-                                ? nlohmann::json(*colmap_accuracy->error_m * scale)
-                                : nullptr},
-                           {"seconds", colmap_s},
-                           {"pose_fit", fit_json(colmap_accuracy->pose_fit)}};
-        if (shared) {
-          entry["colmap"]["error_correlation_with_on"] = shared->correlation;
-          entry["colmap"][std::string("error_difference_from_on_") + unit] =
-              shared->difference_rms_m * scale;
-        }
-      }
-      json["sets"].push_back(entry);
+      Comparison comparison;
+      RunRepeats(set, interval, flags.repeat, &comparison);
+      RunOrders(set, interval, flags.orders, scale, &comparison);
+      CompareLive(scale, &comparison);
+      PrintComparison(set, interval, comparison, colmap_accuracy, colmap_s, colmap && set.colmap,
+                      flags.repeat, flags.orders, scale, unit);
+      json["sets"].push_back(ComparisonJson(set, interval, comparison, colmap_accuracy, colmap_s,
+                                            flags.repeat, flags.orders, scale, unit));
     }
   }
   std::cout << json.dump() << "\n";
   return 0;
+}
+
+}  // namespace
+}  // namespace flysfm
+
+int main(int argc, char** argv) {
+  using namespace flysfm;
+  ApplyMallocPolicy();  // as flysfm does: the engine measured as it runs there
+  Flags flags;
+  CLI::App app("Refinement between shots, off against on, and COLMAP on the same photos");
+  bench::AddDataOption(&app, &flags.data);
+  app.add_option("--sets", flags.sets, "Sets: fountain, temple, rendered, fr3, fr1, fr1nok")
+      ->delimiter(',')
+      ->capture_default_str();
+  app.add_option("--interval", flags.interval_s, "Seconds between photos")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  app.add_option("--rendered-photos", flags.rendered_photos, "Photos of the rendered set")
+      ->check(CLI::Range(2, 100000))
+      ->capture_default_str();
+  app.add_option("--fr1-intervals", flags.fr1_intervals_s, "Seconds between fr1_xyz frames")
+      ->delimiter(',')
+      ->capture_default_str();
+  app.add_option("--fr1-frames", flags.fr1_frames, "fr1_xyz frames (0: all)")
+      ->capture_default_str();
+  app.add_option("--repeat", flags.repeat, "Runs of each set, off and on")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_option("--orders", flags.orders, "Capture orders (as captured, then shuffled)")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_flag("--no-colmap", flags.no_colmap, "Do not run COLMAP");
+  app.add_option("--work", flags.work, "Folder for COLMAP's runs and the rendered photos")
+      ->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
+  return Main(flags);
 }

@@ -276,7 +276,7 @@ class Engine {
   // End of a batch: pending images get a last try, then the optional global
   // BA. Returns results for images registered by the last try. A run that
   // refines between images refines until nothing is left before this
-  // (RunEngine); one fed as fast as the engine goes had no idle time, and
+  // (the run loop, io/run); one fed as fast as the engine goes had no idle time, and
   // gets the global BA alone.
   std::vector<ImageResult> Finish();
 

@@ -58,11 +58,11 @@ void AddBatchCommand(CLI::App& app) {
       if (flags->shuffle_seed >= 0) ShuffleFrames(&frames, std::uint32_t(flags->shuffle_seed));
       FrameListSource source(std::move(frames), flags->interval);
       Engine engine = flags->engine.MakeEngine();
-      RunEngineOptions run_options;
-      run_options.skipped_entries = int(skipped.size());
-      run_options.keep_view = flags->view_keep;
-      run_options.refine_between_images = flags->interval > 0;
-      exit_code = RunEngine(&source, &engine, flags->engine, run_options);
+      CommandRun run;
+      run.skipped_entries = int(skipped.size());
+      run.keep_view = flags->view_keep;
+      if (flags->interval == 0) run.between_images = RunLoop::Options::BetweenImages::kNothing;
+      exit_code = RunFromFlags(&source, &engine, flags->engine, run);
     } catch (const std::invalid_argument& e) {
       std::cerr << "flysfm batch: " << e.what() << "\n";
       exit_code = 2;

@@ -43,9 +43,9 @@ void AddDemoCommand(CLI::App& app) {
     if (engine_flags.camera.empty()) engine_flags.camera = capture.camera.ToString();
     Engine engine = engine_flags.MakeEngine();
     FrameListSource source(capture.frames, flags->interval);
-    RunEngineOptions run_options;
-    run_options.refine_between_images = flags->interval > 0;
-    RunEngine(&source, &engine, engine_flags, run_options);
+    CommandRun run;
+    if (flags->interval == 0) run.between_images = RunLoop::Options::BetweenImages::kNothing;
+    RunFromFlags(&source, &engine, engine_flags, run);
 
     const Reconstruction& model = engine.reconstruction();
     const std::optional<PositionErrors> errors =

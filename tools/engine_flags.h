@@ -1,7 +1,8 @@
 #pragma once
 
 // Options shared by the commands that run the engine (batch, demo, live):
-// the camera, the retrieval model, the ablation switches and the output.
+// the camera, the retrieval model, the ablation switches, the output and the
+// run loop's options.
 
 #include <functional>
 #include <map>
@@ -11,7 +12,7 @@
 #include <CLI/CLI.hpp>
 
 #include "core/engine.h"
-#include "io/run/run_writer.h"
+#include "io/run/run_loop.h"
 #include "io/sources/image_source.h"
 #include "tools/view_flags.h"
 
@@ -46,33 +47,27 @@ struct EngineFlags {
 
 void AddEngineFlags(CLI::App* command, EngineFlags* flags);
 
-struct RunEngineOptions {
-  // Each line also gives the delay from the image's arrival (Frame::arrival)
-  // to its result, and the run ends with the median delay.
+// What a command adds to its flags for the run loop (io/run/run_loop.h).
+struct CommandRun {
+  // A batch fed as fast as the engine goes refines at the end only
+  // (kNothing), so that its model does not depend on the machine's speed.
+  RunLoop::Options::BetweenImages between_images =
+      RunLoop::Options::BetweenImages::kRefineUntilNextImage;
+  // Each line gives the delay from the image's arrival to its result.
   bool live = false;
   // Input folder entries the listing could not examine, for summary.json.
   int skipped_entries = 0;
-  // Engine::AddImage; a test puts a fault here.
-  std::function<std::vector<ImageResult>(Engine*, PreparedFrame)> add_image;
   // With --view: after the run, keep serving the page until Ctrl-C.
   bool keep_view = false;
-  // Refine the model while no image waits (unless --no-refinement); else
-  // only at the end. A batch fed as fast as the engine goes refines at the
-  // end only, so that its model does not depend on the machine's speed.
-  bool refine_between_images = true;
+  RunLoop::Hooks hooks;
 };
 
-// Runs every frame of `source` through the engine, printing one line per
-// image result and keeping `out` current, its checkpoint (OUT/state)
-// included; ends with Finish() and the final model. With flags.resume the
-// engine first continues the checkpointed model, and frames it holds are
-// skipped (a checkpoint that cannot be read: std::runtime_error). Images
-// quarantined in OUT/quarantine.tsv are skipped; an exception
-// on one image is reported naming it, counted, and the image quarantined;
-// the run goes on. A failed output write is reported and counted; the next
-// write retries. Returns the process exit code: 1 when the final outputs
-// could not be written or the source failed.
-int RunEngine(ImageSource* source, Engine* engine, const EngineFlags& flags,
-              const RunEngineOptions& options = {});
+// Runs `source` through `engine` in the run loop with the options the flags
+// ask for, serving the view they ask for (started before the first image,
+// so that a port in use fails the run at once). Returns the process exit
+// code: 1 when the final outputs could not be written or the source failed.
+// A checkpoint that cannot be resumed from: std::runtime_error.
+int RunFromFlags(ImageSource* source, Engine* engine, const EngineFlags& flags,
+                 const CommandRun& run = {});
 
 }  // namespace flysfm

@@ -55,22 +55,6 @@ void StartSignalThread() {
   }).detach();
 }
 
-// Ends the run after `max_images` frames (0: never), for scripted runs.
-class LimitedSource : public ImageSource {
- public:
-  LimitedSource(ImageSource* source, int max_images) : source_(source), left_(max_images) {}
-  std::optional<Frame> Next() override {
-    if (left_ == 0) return std::nullopt;
-    --left_;
-    return source_->Next();
-  }
-  void Stop() override { source_->Stop(); }
-
- private:
-  ImageSource* source_;
-  int left_;
-};
-
 }  // namespace
 
 void AddLiveCommand(CLI::App& app) {
@@ -197,9 +181,9 @@ void AddLiveCommand(CLI::App& app) {
       std::fflush(stdout);
       SetStop([source = source.get()] { source->Stop(); });
       LimitedSource limited(source.get(), flags->max_images > 0 ? flags->max_images : -1);
-      RunEngineOptions run_options;
-      run_options.live = true;
-      exit_code = RunEngine(&limited, &engine, flags->engine, run_options);
+      CommandRun run;
+      run.live = true;
+      exit_code = RunFromFlags(&limited, &engine, flags->engine, run);
       SetStop(nullptr);
       if (camfi_source != nullptr) {
         const CamfiStats stats = camfi_source->stats();

@@ -66,4 +66,21 @@ class FrameListSource : public ImageSource {
   bool stopped_ = false;
 };
 
+// Ends after the first `max_images` frames of `source` (negative: never),
+// for scripted runs. Not thread-safe but for Stop(), as every source.
+class LimitedSource : public ImageSource {
+ public:
+  LimitedSource(ImageSource* source, int max_images) : source_(source), left_(max_images) {}
+  std::optional<Frame> Next() override {
+    if (left_ == 0) return std::nullopt;
+    if (left_ > 0) --left_;
+    return source_->Next();
+  }
+  void Stop() override { source_->Stop(); }
+
+ private:
+  ImageSource* source_;
+  int left_;
+};
+
 }  // namespace flysfm

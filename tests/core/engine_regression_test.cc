@@ -1,6 +1,6 @@
-// The engine on the shared real data sets, each image fed as if it arrived on
-// its own, against ground truth. Floors from the engine issue; COLMAP 3.8 on
-// this kind of machine, for comparison, in ../shared/ANCHORS.md.
+// The engine on the real data sets, each image fed through the run loop as if
+// it arrived on its own, against ground truth. The floors are COLMAP 3.8's
+// figures on the same data on this kind of machine (docs/peers.md).
 
 #include "core/engine.h"
 
@@ -13,7 +13,8 @@
 #include "io/evaluation/evaluation.h"
 #include "io/sources/image_source.h"
 #include "io/sources/image_markers.h"
-#include "io/sources/prepared_source.h"
+#include "io/run/run_loop.h"
+#include "geometry/statistics.h"
 #include "matching/image_decode.h"
 #include "tests/testing/data.h"
 #include "tests/testing/datasets.h"
@@ -30,35 +31,39 @@ struct Run {
 };
 
 // What `flysfm batch` leaves between images. kNone: fed as fast as the
-// engine goes, no idle time, Finish's global BA alone. kRefine: paced by a
+// engine goes, no idle time, refinement at the end only. kRefine: paced by a
 // camera slow enough for the refinement between shots to run out of work
 // before each image arrives (without a deadline its slices are the same on
 // any machine).
 enum class Pacing { kNone, kRefine };
 
-// As `flysfm batch` runs: the next frame prepared on the second core. An
-// empty `camera`: intrinsics unknown, as without --camera. `on_arrival`, when
-// given, sees the model as each image arrives, before it is added.
+// Through the run loop, as `flysfm batch` runs. An empty `camera`:
+// intrinsics unknown, as without --camera. `on_arrival`, when given, sees
+// the model as each image arrives, before it is added.
 Run RunEngine(std::vector<Frame> frames, const std::string& camera,
               const Engine::Options& options = Engine::Options(), Pacing pacing = Pacing::kNone,
               const std::function<void(const Reconstruction&)>& on_arrival = {}) {
   Engine engine(options, camera.empty() ? std::nullopt
-                                                  : std::optional<Camera>(
-                                                        Camera::FromString(camera, 0, 0)));
+                                        : std::optional<Camera>(Camera::FromString(camera, 0, 0)));
   FrameListSource source(std::move(frames));
-  PreparedFrameSource prepared(&source, engine.options());
-  std::optional<double> focal_length_from_pairs;
-  const auto note = [&](const std::vector<ImageResult>& results) {
-    for (const ImageResult& result : results) {
-      if (result.focal_length_from_pairs) focal_length_from_pairs = result.focal_length_from_pairs;
-    }
-  };
-  while (std::optional<PreparedFrame> frame = prepared.Next()) {
-    if (on_arrival) on_arrival(engine.reconstruction());
-    note(engine.AddImage(std::move(*frame)));
-    if (pacing == Pacing::kRefine) note(engine.RefineToEnd());
+  RunLoop::Options run_options;
+  run_options.print = false;
+  run_options.between_images = pacing == Pacing::kRefine
+                                   ? RunLoop::Options::BetweenImages::kRefineToEnd
+                                   : RunLoop::Options::BetweenImages::kNothing;
+  RunLoop::Hooks hooks;
+  if (on_arrival) {
+    hooks.on_arrival = [&](const Engine& engine, const PreparedFrame&) {
+      on_arrival(engine.reconstruction());
+    };
   }
-  engine.Finish();
+  const RunLoop::Summary summary = RunLoop(run_options).Run(&source, &engine, hooks);
+  std::optional<double> focal_length_from_pairs;
+  for (const RunLoop::Reported& reported : summary.results) {
+    if (reported.result.focal_length_from_pairs) {
+      focal_length_from_pairs = reported.result.focal_length_from_pairs;
+    }
+  }
   return {engine.reconstruction(), int(engine.PendingImageNames().size()),
           focal_length_from_pairs};
 }
@@ -98,7 +103,7 @@ TEST_CASE("TUM freiburg3, 17 frames at 1 Hz: all registered, ATE <= 1.5 cm") {
 // The first `num_frames` of the 330 frames, in order or in a random order
 // (the arbitrary capture the paper claims), with `camera` ("": unknown, the
 // focal length then within 5 % of the TUM calibration's). The ATE floors:
-// COLMAP 3.8's on the first 100 frames (1.38 cm, ANCHORS.md) with margin;
+// COLMAP 3.8's on the first 100 frames (1.38 cm, docs/peers.md) with margin;
 // with 330 frames or without K, ORB-SLAM's 0.90 cm on its keyframes, which
 // the global BAs' rolling-shutter model brings within reach (docs/bundle.md).
 void CheckFreiburg1Xyz(std::size_t num_frames, int shuffle_seed, const std::string& camera,
@@ -152,7 +157,7 @@ TEST_CASE("TUM freiburg1_xyz, 120 frames without K: >= 99 % registered, ATE <= 0
 
 // fountain-P11 with `camera` ("": unknown): all registered, centres within
 // COLMAP 3.8's 2.81 mm RMS of the Strecha cameras after Sim3 (with K,
-// exhaustive matching; ANCHORS.md). Returns the run.
+// exhaustive matching; docs/peers.md). Returns the run.
 Run CheckFountain(const testing::PhotoSet& fountain, const std::string& camera,
                   const std::string& label, const Engine::Options& options = Engine::Options()) {
   Run run = RunEngine(fountain.frames, camera, options);
@@ -264,14 +269,9 @@ std::function<void(const Reconstruction&)> ArrivalErrors(
   };
 }
 
-double Median(std::vector<double> values) {
-  REQUIRE(!values.empty());
-  std::nth_element(values.begin(), values.begin() + values.size() / 2, values.end());
-  return values[values.size() / 2];
-}
 
 // The floor is COLMAP 3.8's with the same K and exhaustive matching
-// (ANCHORS.md). Refined between photos, the model a live view shows must
+// (docs/peers.md). Refined between photos, the model a live view shows must
 // reach it at every arrival, not only once the session is over; and the
 // refinement must bring the model closer to the truth, as the photos arrive
 // and at the end, than the same photos in the same order without it.

@@ -2,7 +2,7 @@
 
 // Runs the ingest side one image ahead: while the engine works on an image,
 // the next one is fetched from the source, decoded and its features extracted
-// on another thread (ARCHITECTURE.md: the loop itself stays single-threaded
+// on another thread (the loop itself stays single-threaded
 // and deterministic; only Engine::Prepare, which needs no model, runs ahead).
 
 #include <atomic>

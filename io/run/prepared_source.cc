@@ -1,10 +1,12 @@
-#include "io/sources/prepared_source.h"
+#include "io/run/prepared_source.h"
 
 #include <algorithm>
 #include <cmath>
 #include <vector>
 
 #include <opencv2/core/utility.hpp>
+
+#include "geometry/statistics.h"
 
 namespace flysfm {
 
@@ -48,11 +50,6 @@ namespace {
 // A cadence follows the photographer's latest rhythm, not the session's.
 constexpr std::size_t kCadenceFrames = 9;
 
-template <typename T>
-T Median(std::vector<T> values) {
-  std::nth_element(values.begin(), values.begin() + values.size() / 2, values.end());
-  return values[values.size() / 2];
-}
 
 }  // namespace
 
@@ -78,12 +75,13 @@ bool PreparedFrameSource::WaitReady(std::chrono::milliseconds timeout) const {
 
 std::optional<PreparedFrameSource::Cadence> PreparedFrameSource::ShotCadence() const {
   if (arrivals_.size() < 3) return std::nullopt;
-  std::vector<std::chrono::steady_clock::duration> intervals;
+  std::vector<double> intervals_s;
   for (std::size_t i = 1; i < arrivals_.size(); ++i) {
-    intervals.push_back(arrivals_[i] - arrivals_[i - 1]);
+    intervals_s.push_back(std::chrono::duration<double>(arrivals_[i] - arrivals_[i - 1]).count());
   }
   Cadence cadence;
-  cadence.interval = Median(std::move(intervals));
+  cadence.interval = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+      std::chrono::duration<double>(Median(std::move(intervals_s))));
   cadence.next_arrival = arrivals_.back() + cadence.interval;
   return cadence;
 }

@@ -1,7 +1,6 @@
-// The engine loop of batch, demo and live (RunEngine) with faults put in
-// it: an engine that throws on one image, an engine that kills the process
-// during one, an output folder that cannot be written, a second process on
-// the same --out.
+// The run loop with faults put in it: an engine that throws on one image, an
+// engine that kills the process during one, an output folder that cannot be
+// written; resuming a checkpointed model; refinement between paced images.
 
 #include <signal.h>
 #include <spawn.h>
@@ -18,13 +17,12 @@
 #include <catch2/catch.hpp>
 #include <nlohmann/json.hpp>
 
-#include "io/run/output_lock.h"
+#include "io/run/run_loop.h"
 #include "io/synthetic/synthetic_source.h"
 #include "tests/io/sources/source_fixture.h"
 #include "tests/testing/frame_files.h"
 #include "tests/testing/temp_dir.h"
-#include "tests/tools/live_process.h"
-#include "tools/engine_flags.h"
+#include "tests/testing/process.h"
 
 extern char** environ;
 
@@ -50,17 +48,22 @@ std::vector<ImageResult> FakeAddImage(std::vector<std::string>* seen, PreparedFr
   return {result};
 }
 
-EngineFlags Flags(const fs::path& out) {
-  EngineFlags flags;
-  flags.out = out.string();
-  flags.refresh_seconds = 0;
-  return flags;
+RunLoop::Options OptionsFor(const fs::path& out) {
+  RunLoop::Options options;
+  options.out = out.string();
+  options.refresh_seconds = 0;
+  return options;
 }
 
-int Run(const fs::path& images, const fs::path& out, RunEngineOptions options) {
+int Run(const fs::path& images, const fs::path& out, const RunLoop::Hooks& hooks,
+        RunLoop::Options options) {
   FrameListSource source(ListImageFolder(images));
-  Engine engine = EngineFlags().MakeEngine();
-  return RunEngine(&source, &engine, Flags(out), options);
+  Engine engine{Engine::Options()};
+  return RunLoop(std::move(options)).Run(&source, &engine, hooks).exit_code;
+}
+
+int Run(const fs::path& images, const fs::path& out, const RunLoop::Hooks& hooks) {
+  return Run(images, out, hooks, OptionsFor(out));
 }
 
 nlohmann::json Summary(const fs::path& out) {
@@ -80,7 +83,7 @@ TEST_CASE("An engine exception on one image is counted, quarantined, and the run
   testing::WriteTestJpegs(dir / "images", kImages);
   const fs::path out = dir / "out";
   std::vector<std::string> seen;
-  RunEngineOptions options;
+  RunLoop::Hooks options;
   options.add_image = [&](Engine*, PreparedFrame frame) {
     // A broken invariant: a std::logic_error, not a runtime_error.
     if (frame.frame.name == kPoison) throw std::logic_error("broken invariant");
@@ -107,55 +110,6 @@ TEST_CASE("An engine exception on one image is counted, quarantined, and the run
   CHECK(Summary(out)["quarantined"] == 1);
 }
 
-TEST_CASE("Images over --max-megapixels are rejected before decoding, with the reason logged") {
-  const fs::path dir = testing::MakeTempDir("run_engine_megapixels");
-  // 64 x 48, 56, 64 and 72 pixels: the last two claim more than 4 000.
-  testing::WriteTestJpegs(dir / "images", kImages);
-  const fs::path out = dir / "out";
-  CLI::App app;
-  EngineFlags flags;
-  AddEngineFlags(&app, &flags);
-  app.parse("--out " + out.string() + " --max-megapixels 0.004 --refresh-seconds 0", false);
-  FrameListSource source(ListImageFolder(dir / "images"));
-  Engine engine = flags.MakeEngine();
-  CHECK(RunEngine(&source, &engine, flags) == 0);
-  std::map<std::string, std::string> reasons;
-  for (const std::string& line : testing::LinesStartingWith(out / "log.jsonl", "{")) {
-    const nlohmann::json record = nlohmann::json::parse(line);
-    reasons[record["name"].get<std::string>()] = record.value("reason", "");
-  }
-  REQUIRE(reasons.size() == std::size_t(kImages));
-  for (const char* const small : {"shot00.jpg", "shot01.jpg"}) {
-    CHECK_THAT(reasons[small], !Catch::Contains("max_image_pixels"));
-  }
-  for (const char* const large : {"shot02.jpg", "shot03.jpg"}) {
-    CHECK_THAT(reasons[large], Catch::Contains("above max_image_pixels"));
-  }
-
-  CLI::App bad;
-  EngineFlags bad_flags;
-  AddEngineFlags(&bad, &bad_flags);
-  CHECK_THROWS_AS(bad.parse("--out x --max-megapixels 0", false), CLI::ValidationError);
-}
-
-TEST_CASE("The flag --lsm-window-budget sets the engine's LSM memory; a negative one is refused") {
-  CLI::App app;
-  EngineFlags flags;
-  AddEngineFlags(&app, &flags);
-  app.parse("--out x --lsm-window-budget 300", false);
-  CHECK(flags.MakeEngine().options().lsm_images.window_budget_megabytes == 300);
-  CLI::App defaults;
-  EngineFlags default_flags;
-  AddEngineFlags(&defaults, &default_flags);
-  defaults.parse("--out x", false);
-  CHECK(default_flags.MakeEngine().options().lsm_images.window_budget_megabytes ==
-        LsmImageStore::Options().window_budget_megabytes);
-  CLI::App bad;
-  EngineFlags bad_flags;
-  AddEngineFlags(&bad, &bad_flags);
-  CHECK_THROWS_AS(bad.parse("--out x --lsm-window-budget -1", false), CLI::ValidationError);
-}
-
 TEST_CASE("A failed output write is counted and the run goes on") {
   const fs::path dir = testing::MakeTempDir("run_engine_write");
   testing::WriteTestJpegs(dir / "images", kImages);
@@ -164,7 +118,7 @@ TEST_CASE("A failed output write is counted and the run goes on") {
   // sparse/ cannot be made: every model write fails.
   std::ofstream(out / "sparse") << "not a folder";
   std::vector<std::string> seen;
-  RunEngineOptions options;
+  RunLoop::Hooks options;
   options.add_image = [&](Engine*, PreparedFrame frame) {
     return FakeAddImage(&seen, std::move(frame));
   };
@@ -181,7 +135,7 @@ TEST_CASE("A failed output write is counted and the run goes on") {
 TEST_CASE("crash child", "[.]") {
   const char* out = std::getenv(kChildOutVariable);
   REQUIRE(out != nullptr);
-  RunEngineOptions options;
+  RunLoop::Hooks options;
   // No core file for an abort on purpose.
   const rlimit no_core = {0, 0};
   ::setrlimit(RLIMIT_CORE, &no_core);
@@ -209,7 +163,7 @@ TEST_CASE("After a process crashed on one image, the restart skips that image") 
   REQUIRE(testing::WaitForExit(child, 30) == 128 + SIGABRT);
 
   std::vector<std::string> seen;
-  RunEngineOptions options;
+  RunLoop::Hooks options;
   options.add_image = [&](Engine*, PreparedFrame frame) {
     return FakeAddImage(&seen, std::move(frame));
   };
@@ -220,13 +174,11 @@ TEST_CASE("After a process crashed on one image, the restart skips that image") 
   CHECK_THAT(testing::ReadText(out / "quarantine.tsv"),
              Catch::Contains(std::string("crashed\t") + kPoison));
 
-  // --retry-quarantined gives it another try.
+  // retry_quarantined (--retry-quarantined) gives it another try.
   seen.clear();
-  EngineFlags flags = Flags(out);
-  flags.retry_quarantined = true;
-  FrameListSource source(ListImageFolder(dir / "images"));
-  Engine engine = EngineFlags().MakeEngine();
-  CHECK(RunEngine(&source, &engine, flags, options) == 0);
+  RunLoop::Options retry = OptionsFor(out);
+  retry.retry_quarantined = true;
+  CHECK(Run(dir / "images", out, options, retry) == 0);
   CHECK(seen.size() == std::size_t(kImages));
 }
 
@@ -241,17 +193,16 @@ std::vector<Frame> RenderedFolder(const fs::path& dir, Camera* camera) {
   return ListImageFolder(dir);
 }
 
-TEST_CASE("batch --resume continues the checkpointed model and extends a finished one") {
+TEST_CASE("Resuming continues the checkpointed model and extends a finished one") {
   const fs::path dir = testing::MakeTempDir("run_engine_resume");
   Camera camera;
   const std::vector<Frame> frames = RenderedFolder(dir / "images", &camera);
   const fs::path out = dir / "out";
-  EngineFlags flags = Flags(out);
-  flags.camera = camera.ToString();
+  RunLoop::Options options = OptionsFor(out);
   const auto run = [&](std::size_t num_frames) {
     FrameListSource source(std::vector<Frame>(frames.begin(), frames.begin() + num_frames));
-    Engine engine = flags.MakeEngine();
-    REQUIRE(RunEngine(&source, &engine, flags) == 0);
+    Engine engine(Engine::Options(), camera);
+    REQUIRE(RunLoop(options).Run(&source, &engine).exit_code == 0);
     return Summary(out);
   };
 
@@ -260,7 +211,7 @@ TEST_CASE("batch --resume continues the checkpointed model and extends a finishe
   const std::size_t half = frames.size() / 2;
   CHECK(run(half)["resumed_images"] == 0);
   REQUIRE(fs::exists(out / "state" / "snapshot.bin"));
-  flags.resume = true;
+  options.resume = true;
   nlohmann::json summary = run(frames.size());
   CHECK(summary["resumed_images"] == half);
   CHECK(summary["skipped_in_model"] == half);
@@ -275,42 +226,41 @@ TEST_CASE("batch --resume continues the checkpointed model and extends a finishe
   CHECK(summary["registered"] == frames.size());
 
   // Without --resume a new model starts.
-  flags.resume = false;
+  options.resume = false;
   CHECK(run(half)["resumed_images"] == 0);
 
   // A checkpoint that cannot be read stops the run with the reason and
   // what to do; nothing is overwritten.
   std::ofstream(out / "state" / "snapshot.bin", std::ios::binary | std::ios::trunc) << "junk";
-  flags.resume = true;
+  options.resume = true;
   FrameListSource source(frames);
-  Engine engine = flags.MakeEngine();
-  CHECK_THROWS_WITH(RunEngine(&source, &engine, flags),
+  Engine engine(Engine::Options(), camera);
+  CHECK_THROWS_WITH(RunLoop(options).Run(&source, &engine),
                     Catch::Contains("cannot resume from") && Catch::Contains("move that folder"));
   CHECK(testing::ReadText(out / "state" / "snapshot.bin") == "junk");
 }
 
 TEST_CASE("Paced images are refined between them, and the summary counts it; "
-          "--no-refinement refines nothing") {
+          "an engine without refinement refines nothing") {
   const fs::path dir = testing::MakeTempDir("run_engine_refine");
   Camera camera;
   std::vector<Frame> frames = RenderedFolder(dir / "images", &camera);
   frames.resize(6);
   for (const bool refine : {true, false}) {
     const fs::path out = dir / (refine ? "on" : "off");
-    EngineFlags flags = Flags(out);
-    flags.camera = camera.ToString();
-    flags.no_refinement = !refine;
-    Engine engine = flags.MakeEngine();
+    Engine::Options engine_options;
+    engine_options.refinement.enabled = refine;
+    Engine engine(engine_options, camera);
     // Refinement slices done before each image, as the run gave them.
     std::vector<int> slices_before;
-    RunEngineOptions options;
+    RunLoop::Hooks options;
     options.add_image = [&](Engine* engine, PreparedFrame frame) {
       slices_before.push_back(engine->refinement_totals().num_slices);
       return engine->AddImage(std::move(frame));
     };
     // One image a second: the engine is idle most of each interval.
     FrameListSource source(frames, 1.0);
-    REQUIRE(RunEngine(&source, &engine, flags, options) == 0);
+    REQUIRE(RunLoop(OptionsFor(out)).Run(&source, &engine, options).exit_code == 0);
     const nlohmann::json summary = Summary(out);
     CHECK(summary["registered"] == frames.size());
     REQUIRE(slices_before.size() == frames.size());
@@ -323,23 +273,6 @@ TEST_CASE("Paced images are refined between them, and the summary counts it; "
       CHECK(summary["refinement"]["slices"] == 0);
     }
   }
-}
-
-TEST_CASE("A second flysfm on the same --out fails at once, naming the first") {
-  const fs::path dir = testing::MakeTempDir("run_engine_lock");
-  testing::WriteTestJpegs(dir / "images", kImages);
-  const fs::path out = dir / "out";
-  const OutputLock held(out);
-  const pid_t pid = testing::SpawnFlysfm({"batch", (dir / "images").string(), "--out",
-                                          out.string()},
-                                         dir / "second.txt");
-  CHECK(testing::WaitForExit(pid, 20) == 1);
-  CHECK_THAT(testing::ReadText(dir / "second.txt"),
-             Catch::Contains("in use by another flysfm process (pid " +
-                             std::to_string(::getpid()) + ")"));
-  CHECK_FALSE(fs::exists(out / "log.jsonl"));
-  // In the same process too: the lock is per open file.
-  CHECK_THROWS_WITH(OutputLock(out), Catch::Contains("in use"));
 }
 
 }  // namespace

@@ -1,0 +1,374 @@
+#include "io/run/run_loop.h"
+
+#include <algorithm>
+#include <map>
+#include <memory>
+#include <stdexcept>
+#include <unordered_set>
+
+#include "geometry/statistics.h"
+#include "io/sources/quarantine.h"
+#include "io/view/view_server.h"
+
+namespace flysfm {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double SecondsSince(Clock::time_point t) {
+  return std::chrono::duration<double>(Clock::now() - t).count();
+}
+
+void PrintLine(int index, const ImageResult& result, std::optional<double> delay_ms) {
+  char delay[48] = "";
+  if (delay_ms) std::snprintf(delay, sizeof(delay), "  delay %6.0f ms", *delay_ms);
+  std::printf("[%4d] %-32s %-10s %6d pts %+5d new %7.0f ms  model %d img / %d pts%s%s%s\n",
+              index, result.name.c_str(), ImageStatusName(result.status),
+              result.num_observations, result.num_new_points, result.times.total,
+              result.model_images, result.model_points, delay,
+              result.reason.empty() ? "" : "  ", result.reason.c_str());
+  std::fflush(stdout);
+}
+
+// What `step` threw, whatever it was (a std::logic_error of a broken
+// invariant included); nullopt when it returned.
+std::optional<std::string> ErrorOf(const std::function<void()>& step) {
+  try {
+    step();
+  } catch (const std::exception& e) {
+    return std::string(e.what());
+  } catch (...) {
+    return std::string("unknown exception");
+  }
+  return std::nullopt;
+}
+
+// One run's state: what the loop's steps share.
+class RunState {
+ public:
+  RunState(const RunLoop::Options& options, ViewServer* view, Engine* engine,
+      const RunLoop::Hooks& hooks)
+      : options_(options), view_(view), engine_(engine), hooks_(hooks), start_(Clock::now()) {
+    if (!options_.out.empty()) {
+      writer_ = std::make_unique<RunWriter>(options_.out);
+      checkpointer_ = std::make_unique<Checkpointer>(
+          std::filesystem::path(options_.out) / "state", options_.checkpoint);
+    }
+    summary_.counts.skipped_entries = options_.skipped_entries;
+  }
+
+  RunLoop::Summary Go(ImageSource* source);
+
+ private:
+  void Resume();
+  void Report(const std::vector<ImageResult>& results, RunLoop::Origin origin,
+              const std::string& arriving = "");
+  void PublishView();
+  void Checkpoint(double call_ms, bool final);
+  bool WriteOutputs(bool final);
+  void RefreshOutputs();
+  void ProcessImage(PreparedFrame frame);
+  void RefineWhileIdle(const PreparedFrameSource& prepared);
+  void End();
+  void PrintClosingLines() const;
+
+  const RunLoop::Options& options_;
+  ViewServer* view_;
+  Engine* engine_;
+  const RunLoop::Hooks& hooks_;
+  const Clock::time_point start_;
+  Clock::time_point last_refresh_ = start_;
+  std::unique_ptr<RunWriter> writer_;
+  std::unique_ptr<Checkpointer> checkpointer_;
+  std::unique_ptr<Quarantine> quarantine_;
+  std::unique_ptr<QuarantineFilterSource> filtered_;
+  std::unordered_set<std::string> in_model_;
+  RunLoop::Summary summary_;
+  std::vector<ImageResult> logged_;  // what summary.json summarises
+  std::vector<ViewLine> view_lines_;
+  // A pending image's later result is timed from its own arrival.
+  std::map<std::string, Clock::time_point> arrivals_;
+  std::vector<double> registration_delays_ms_;
+  double engine_ms_ = 0;
+  bool refinement_failed_ = false;
+  bool source_failed_ = false;
+};
+
+void RunState::Resume() {
+  if (!checkpointer_) return;
+  if (!options_.resume || !checkpointer_->Exists()) {
+    checkpointer_->Clear();
+    return;
+  }
+  try {
+    checkpointer_->Restore(engine_);
+  } catch (const std::exception& e) {
+    throw std::runtime_error("cannot resume from " + checkpointer_->dir().string() + ": " +
+                             e.what() + "; move that folder away to start the model over");
+  }
+  for (const auto& [image_id, image] : engine_->reconstruction().images()) {
+    in_model_.insert(image.name);
+  }
+  summary_.counts.resumed_images = int(in_model_.size());
+  if (options_.print) {
+    std::printf("resumed: %zu images (%zu registered, %zu points) from %s in %.1f s\n",
+                in_model_.size(), engine_->reconstruction().NumRegisteredImages(),
+                engine_->reconstruction().NumPoints3D(), checkpointer_->dir().c_str(),
+                SecondsSince(start_));
+    std::fflush(stdout);
+  }
+}
+
+void RunState::Report(const std::vector<ImageResult>& results, RunLoop::Origin origin,
+                      const std::string& arriving) {
+  for (const ImageResult& result : results) {
+    RunLoop::Reported reported{result, origin, !arriving.empty() && result.name == arriving,
+                               std::nullopt};
+    const auto arrival = arrivals_.find(result.name);
+    if (arrival != arrivals_.end() && arrival->second != Clock::time_point()) {
+      reported.delay_ms = 1000 * SecondsSince(arrival->second);
+      if (result.status == ImageStatus::kRegistered) {
+        registration_delays_ms_.push_back(*reported.delay_ms);
+      }
+    }
+    const std::optional<double> shown_delay =
+        options_.live ? reported.delay_ms : std::optional<double>();
+    if (options_.print) PrintLine(summary_.counts.images_in, result, shown_delay);
+    if (view_) view_lines_.push_back(MakeViewLine(result, shown_delay));
+    if (writer_) writer_->Log(result);
+    logged_.push_back(result);
+    summary_.results.push_back(std::move(reported));
+  }
+}
+
+// Each step's changes to the model, as the page draws them (docs/view.md).
+void RunState::PublishView() {
+  if (!view_) return;
+  view_->Publish(MakeViewUpdate(engine_->reconstruction(), engine_->TakeReconstructionChanges(),
+                                std::move(view_lines_)));
+  view_lines_.clear();
+}
+
+// A failed checkpoint write (a full disk) is counted like any failed
+// output; the next one writes what is still missing.
+void RunState::Checkpoint(double call_ms, bool final) {
+  engine_ms_ += call_ms;
+  if (!checkpointer_) return;
+  try {
+    checkpointer_->Update(*engine_, call_ms, final);
+  } catch (const std::exception& e) {
+    ++summary_.counts.write_errors;
+    std::fprintf(stderr, "cannot write the checkpoint: %s\n", e.what());
+  }
+  const Checkpointer::Summary& saved = checkpointer_->summary();
+  summary_.counts.checkpoint_ms = saved.records_ms + saved.snapshots_ms;
+}
+
+// A failed write (a full disk, a folder made read-only) loses no image: the
+// engine's model is whole, and the next write tries again.
+bool RunState::WriteOutputs(bool final) {
+  RunCounts& counts = summary_.counts;
+  if (filtered_) {
+    counts.quarantined = filtered_->num_skipped();
+    counts.in_model = filtered_->num_in_model();
+  }
+  counts.refinement = engine_->refinement_totals();
+  if (!writer_) return true;
+  try {
+    if (!writer_->MayReplaceOutputs(engine_->reconstruction(), final)) return true;
+    writer_->WriteModel(engine_->reconstruction());
+    writer_->WriteSummary(engine_->reconstruction(), logged_, counts,
+                          engine_->PendingImageNames(), SecondsSince(start_));
+    return true;
+  } catch (const std::exception& e) {
+    ++counts.write_errors;
+    std::fprintf(stderr, "cannot write the outputs in %s: %s\n", options_.out.c_str(), e.what());
+    return false;
+  }
+}
+
+void RunState::RefreshOutputs() {
+  if (SecondsSince(last_refresh_) < options_.refresh_seconds) return;
+  WriteOutputs(/*final=*/false);
+  last_refresh_ = Clock::now();
+}
+
+void RunState::ProcessImage(PreparedFrame frame) {
+  ++summary_.counts.images_in;
+  const std::string name = frame.frame.name;
+  arrivals_[name] = frame.frame.arrival;
+  if (view_) view_->SetLatestShot(frame.image);
+  if (hooks_.on_arrival) hooks_.on_arrival(*engine_, frame);
+  if (quarantine_) quarantine_->BeginEngine(name);
+  std::vector<ImageResult> results;
+  const auto call_start = Clock::now();
+  const std::optional<std::string> error = ErrorOf([&] {
+    results = hooks_.add_image ? hooks_.add_image(engine_, std::move(frame))
+                               : engine_->AddImage(std::move(frame));
+  });
+  const double call_ms = 1000 * SecondsSince(call_start);
+  summary_.calls.push_back({name, call_ms, 0});
+  summary_.last_image_s = SecondsSince(start_);
+  if (!error) {
+    if (quarantine_) quarantine_->Done(name);
+  } else {
+    ++summary_.counts.engine_errors;
+    if (quarantine_) quarantine_->Fail(name, "engine error: " + *error);
+    std::fprintf(stderr, "engine error on %s: %s; the image is %s\n", name.c_str(),
+                 error->c_str(), quarantine_ ? "quarantined" : "skipped");
+    ImageResult failed;
+    failed.name = name;
+    failed.status = ImageStatus::kRejected;
+    failed.reason = "engine error (quarantined): " + *error;
+    results.push_back(failed);
+  }
+  if (hooks_.on_image) hooks_.on_image(*engine_, results, call_ms);
+  Report(results, RunLoop::Origin::kArrival, name);
+  const auto checkpoint_start = Clock::now();
+  Checkpoint(call_ms, /*final=*/false);
+  summary_.calls.back().checkpoint_ms = 1000 * SecondsSince(checkpoint_start);
+  PublishView();
+  RefreshOutputs();
+  if (hooks_.after_image) hooks_.after_image(*engine_);
+}
+
+void RunState::RefineWhileIdle(const PreparedFrameSource& prepared) {
+  using Between = RunLoop::Options::BetweenImages;
+  if (refinement_failed_ || options_.between_images == Between::kNothing) return;
+  const std::optional<std::string> error = ErrorOf([&] {
+    if (options_.between_images == Between::kRefineToEnd) {
+      Report(engine_->RefineToEnd(), RunLoop::Origin::kRefinement);
+      PublishView();
+      return;
+    }
+    RefineUntilNextFrame(engine_, prepared, options_.refinement_share,
+                         [&](Engine::RefinementSlice* slice) {
+                           Report(slice->registered, RunLoop::Origin::kRefinement);
+                           PublishView();
+                           RefreshOutputs();
+                         });
+  });
+  if (error) {
+    ++summary_.counts.engine_errors;
+    refinement_failed_ = true;
+    std::fprintf(stderr, "engine error while refining: %s; no more refinement in this run\n",
+                 error->c_str());
+  }
+}
+
+// The source is done: what refinement has left, at once (a second Ctrl-C
+// in live quits; the checkpoint holds every image), then Finish.
+void RunState::End() {
+  const auto end_start = Clock::now();
+  if (options_.between_images != RunLoop::Options::BetweenImages::kNothing &&
+      !refinement_failed_) {
+    if (const std::optional<std::string> error =
+            ErrorOf([&] { Report(engine_->RefineToEnd(), RunLoop::Origin::kEnd); })) {
+      ++summary_.counts.engine_errors;
+      std::fprintf(stderr, "engine error while refining: %s\n", error->c_str());
+    }
+  }
+  const auto finish_start = Clock::now();
+  if (const std::optional<std::string> error =
+          ErrorOf([&] { Report(engine_->Finish(), RunLoop::Origin::kEnd); })) {
+    ++summary_.counts.engine_errors;
+    std::fprintf(stderr, "engine error while finishing: %s; the model is written as it is\n",
+                 error->c_str());
+  }
+  summary_.finish_s = SecondsSince(finish_start);
+  Checkpoint(1000 * SecondsSince(end_start), /*final=*/true);
+  PublishView();
+  if (!WriteOutputs(/*final=*/true)) summary_.exit_code = 1;
+  if (source_failed_) summary_.exit_code = 1;
+  summary_.end_s = SecondsSince(end_start);
+  summary_.wall_s = SecondsSince(start_);
+  if (checkpointer_) summary_.checkpoint = checkpointer_->summary();
+}
+
+void RunState::PrintClosingLines() const {
+  const Reconstruction& model = engine_->reconstruction();
+  const RunCounts& counts = summary_.counts;
+  std::printf("done: %d images in, %zu registered, %d rejected, %zu pending; %zu points, "
+              "mean reprojection error %.3f px; %.1f s (the end %.1f s)%s%s\n",
+              counts.images_in, model.NumRegisteredImages(), engine_->num_rejected(),
+              engine_->PendingImageNames().size(), model.NumPoints3D(),
+              model.MeanReprojectionError(), summary_.wall_s, summary_.end_s,
+              options_.out.empty() ? "" : ". Output in ", options_.out.c_str());
+  if (counts.quarantined + counts.engine_errors + counts.write_errors + counts.skipped_entries >
+      0) {
+    std::printf("problems: %d quarantined images skipped, %d engine errors, %d failed writes, "
+                "%d unreadable input entries\n",
+                counts.quarantined, counts.engine_errors, counts.write_errors,
+                counts.skipped_entries);
+  }
+  if (checkpointer_) {
+    const Checkpointer::Summary& saved = summary_.checkpoint;
+    std::printf("checkpoint: %.1f ms per image (%.1f %% of the engine's time), %d snapshots "
+                "(last %.0f ms, %.1f MB), %.1f MB written; %d images skipped as already in "
+                "the model\n",
+                counts.images_in > 0 ? counts.checkpoint_ms / counts.images_in : 0.0,
+                engine_ms_ > 0 ? 100 * counts.checkpoint_ms / engine_ms_ : 0.0,
+                saved.num_snapshots, saved.last_snapshot_ms, saved.last_snapshot_bytes / 1e6,
+                saved.bytes / 1e6, counts.in_model);
+  }
+  if (options_.live && !registration_delays_ms_.empty()) {
+    std::printf("median delay from arrival to registration: %.0f ms over %zu images\n",
+                Median(registration_delays_ms_), registration_delays_ms_.size());
+  }
+  std::fflush(stdout);
+}
+
+RunLoop::Summary RunState::Go(ImageSource* source) {
+  Resume();
+  if (view_) {
+    // A resumed run's model so far, as one update.
+    engine_->TakeReconstructionChanges();
+    view_->Publish(MakeFullViewUpdate(engine_->reconstruction()));
+  }
+  ImageSource* input = source;
+  if (!options_.out.empty()) {
+    // Declared before the prepared source, so that they outlive the prefetch.
+    quarantine_ = std::make_unique<Quarantine>(
+        std::filesystem::path(options_.out) / "quarantine.tsv", options_.retry_quarantined);
+    filtered_ = std::make_unique<QuarantineFilterSource>(source, quarantine_.get(), &in_model_);
+    input = filtered_.get();
+  }
+  {
+    PreparedFrameSource prepared(input, engine_->options());
+    while (true) {
+      RefineWhileIdle(prepared);
+      std::optional<PreparedFrame> frame;
+      if (const std::optional<std::string> error = ErrorOf([&] { frame = prepared.Next(); })) {
+        std::fprintf(stderr, "the image source failed: %s; finishing with what it gave\n",
+                     error->c_str());
+        source_failed_ = true;
+      }
+      if (!frame) break;
+      ProcessImage(std::move(*frame));
+    }
+  }
+  End();
+  if (options_.print) PrintClosingLines();
+  return std::move(summary_);
+}
+
+}  // namespace
+
+void RunLoop::Options::Check() const {
+  if (!(refinement_share > 0 && refinement_share <= 1)) {
+    throw std::invalid_argument("refinement_share must be in (0, 1]");
+  }
+  if (!(refresh_seconds >= 0)) throw std::invalid_argument("refresh_seconds must be >= 0");
+  if (!checkpoint.Check()) throw std::invalid_argument("invalid checkpoint options");
+  if (resume && out.empty()) throw std::invalid_argument("resume needs an output folder");
+}
+
+RunLoop::RunLoop(Options options, ViewServer* view) : options_(std::move(options)), view_(view) {
+  options_.Check();
+}
+
+RunLoop::Summary RunLoop::Run(ImageSource* source, Engine* engine, const Hooks& hooks) {
+  return RunState(options_, view_, engine, hooks).Go(source);
+}
+
+}  // namespace flysfm
