@@ -12,6 +12,8 @@ namespace flysfm {
 void AddBatchCommand(CLI::App& app);
 // flysfm camfi-emulator --images DIR [--port-http P] [--port-events Q] ...
 void AddCamfiEmulatorCommand(CLI::App& app);
+// flysfm defaults (prints docs/defaults.md)
+void AddDefaultsCommand(CLI::App& app);
 // flysfm demo [--out DIR] [--views N]
 void AddDemoCommand(CLI::App& app);
 // flysfm eval --groundtruth GT --trajectory TRAJ

@@ -20,6 +20,7 @@ int main(int argc, char** argv) {
   app.require_subcommand(0, 1);
   flysfm::AddBatchCommand(app);
   flysfm::AddCamfiEmulatorCommand(app);
+  flysfm::AddDefaultsCommand(app);
   flysfm::AddDemoCommand(app);
   flysfm::AddEvalCommand(app);
   flysfm::AddLiveCommand(app);
