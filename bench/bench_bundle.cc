@@ -33,7 +33,7 @@
 #include "core/scene_bundle.h"
 #include "tests/bundle/synthetic_problem.h"
 #include "tests/testing/ground_path.h"
-#include "tests/testing/scene_reconstruction.h"
+#include "tests/testing/scene_model.h"
 
 namespace flysfm {
 namespace {

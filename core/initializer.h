@@ -9,7 +9,7 @@
 #include <ostream>
 #include <vector>
 
-#include "core/reconstruction.h"
+#include "core/scene/reconstruction.h"
 #include "geometry/focal_from_fundamental.h"
 #include "geometry/two_view_geometry.h"
 #include "matching/match_store.h"

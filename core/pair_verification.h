@@ -11,9 +11,9 @@
 
 #include <Eigen/Core>
 
-#include "core/image_result.h"
+#include "core/scene/image_result.h"
 #include "core/lsm_image_store.h"
-#include "core/reconstruction.h"
+#include "core/scene/reconstruction.h"
 #include "geometry/two_view_geometry.h"
 #include "lsm/lsm.h"
 #include "matching/features.h"

@@ -11,9 +11,9 @@
 
 #include <Eigen/Core>
 
-#include "core/image_result.h"
+#include "core/scene/image_result.h"
 #include "core/lsm_image_store.h"
-#include "core/reconstruction.h"
+#include "core/scene/reconstruction.h"
 #include "geometry/absolute_pose.h"
 #include "lsm/densify.h"
 #include "matching/match_store.h"

@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "bundle/bundle_adjuster.h"
-#include "core/reconstruction.h"
+#include "core/scene/reconstruction.h"
 
 namespace flysfm {
 

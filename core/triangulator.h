@@ -11,7 +11,7 @@
 #include <cstdint>
 #include <functional>
 
-#include "core/reconstruction.h"
+#include "core/scene/reconstruction.h"
 #include "geometry/triangulation.h"
 #include "matching/match_store.h"
 

@@ -11,7 +11,7 @@
 
 #include <Eigen/Core>
 
-#include "core/reconstruction.h"
+#include "core/scene/reconstruction.h"
 #include "geometry/sim3d.h"
 #include "io/formats/trajectory.h"
 

@@ -9,7 +9,7 @@
 
 #include <filesystem>
 
-#include "core/reconstruction.h"
+#include "core/scene/reconstruction.h"
 
 namespace flysfm {
 

@@ -8,7 +8,7 @@
 #include <utility>
 #include <vector>
 
-#include "core/reconstruction.h"
+#include "core/scene/reconstruction.h"
 #include "geometry/rigid3d.h"
 
 namespace flysfm {

@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-#include "core/frame.h"
+#include "core/scene/frame.h"
 
 namespace flysfm {
 

@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "core/frame.h"
+#include "core/scene/frame.h"
 #include "geometry/camera.h"
 #include "geometry/rigid3d.h"
 

@@ -17,8 +17,8 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
-#include "core/image_result.h"
-#include "core/reconstruction.h"
+#include "core/scene/image_result.h"
+#include "core/scene/reconstruction.h"
 
 namespace flysfm {
 

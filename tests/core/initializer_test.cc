@@ -6,7 +6,7 @@
 
 #include "geometry/essential_matrix.h"
 #include "geometry/fundamental_matrix.h"
-#include "tests/testing/scene_reconstruction.h"
+#include "tests/testing/scene_model.h"
 
 namespace flysfm {
 namespace {

@@ -4,7 +4,7 @@
 
 #include <catch2/catch.hpp>
 
-#include "tests/testing/scene_reconstruction.h"
+#include "tests/testing/scene_model.h"
 
 namespace flysfm {
 namespace {

@@ -16,7 +16,7 @@
 #include "io/evaluation/evaluation.h"
 #include "tests/bundle/synthetic_problem.h"
 #include "tests/testing/ground_path.h"
-#include "tests/testing/scene_reconstruction.h"
+#include "tests/testing/scene_model.h"
 
 namespace flysfm {
 namespace {

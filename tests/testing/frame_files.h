@@ -3,7 +3,7 @@
 #include <filesystem>
 #include <vector>
 
-#include "core/frame.h"
+#include "core/scene/frame.h"
 
 namespace flysfm::testing {
 

@@ -1,14 +1,11 @@
 #pragma once
 
-// Synthetic scenes held in core's Reconstruction, for the tests and benches of
-// code that works on the model as the engine builds it.
+// Synthetic scenes held in the scene library's Reconstruction at their ground
+// truth, for the tests and benches of code that reads or writes the model.
 
-#include <unordered_map>
 #include <vector>
 
-#include "bundle/association_tree.h"
-#include "core/reconstruction.h"
-#include "matching/match_store.h"
+#include "core/scene/reconstruction.h"
 #include "tests/testing/synthetic.h"
 
 namespace flysfm::testing {
@@ -28,26 +25,5 @@ struct SceneReconstruction {
 // true pose, with its observations as keypoints (in the scene's order); every point
 // seen at least twice, with its full track.
 SceneReconstruction ReconstructionFromScene(const SyntheticScene& scene);
-
-// The scene as the engine's steps meet it before anything registers: every
-// image with its observations as keypoints (in the same order as above), no
-// pose and no point; every pair of images matched on the points they share.
-// Quadratic in the images: for small scenes.
-struct SceneModel {
-  Reconstruction reconstruction;
-  MatchStore matches;
-  // keypoint[i][p]: the keypoint of scene point p in scene image i, or
-  // kInvalidPoint2DIdx where the image does not see it.
-  std::vector<std::vector<point2D_t>> keypoint;
-};
-SceneModel MakeSceneModel(const SyntheticScene& scene);
-
-// Registers scene image i of the model at its true pose.
-void RegisterAtTruePose(const SyntheticScene& scene, int image, SceneModel* model);
-
-// The Eq. 4 weights of a tree built over scene image indices, keyed by image
-// id as AdjustLocalBundle takes them.
-std::unordered_map<image_t, double> SceneImageWeights(
-    const HierarchicalAssociationTree& tree);
 
 }  // namespace flysfm::testing

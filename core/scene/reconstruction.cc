@@ -1,4 +1,4 @@
-#include "core/reconstruction.h"
+#include "core/scene/reconstruction.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,4 +1,4 @@
-#include "core/image_result.h"
+#include "core/scene/image_result.h"
 
 namespace flysfm {
 

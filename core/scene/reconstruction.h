@@ -11,8 +11,8 @@
 
 #include <Eigen/Core>
 
-#include "core/image.h"
-#include "core/point3d.h"
+#include "core/scene/image.h"
+#include "core/scene/point3d.h"
 #include "geometry/types.h"
 #include "geometry/camera.h"
 #include "geometry/sim3d.h"
