@@ -34,6 +34,8 @@ struct AddedResidual {
   bool pose_free = false;
   // blocks[point_block] is the point (after the pose's two blocks, if any).
   int point_block = 0;
+
+  bool HasPoseBlocks() const { return point_block > 0; }
 };
 
 // The poses held constant for the solve (the problem's flags plus the gauge)
@@ -262,6 +264,370 @@ double WeightedMeanTrackLength(const BundleProblem& problem,
   return sum > 0 ? sum_squares / sum : 0;
 }
 
+// What the solve refines, decided before any block enters Ceres.
+struct FreeParameters {
+  GaugeChoice gauge;
+  std::vector<char> point_observed;
+  // Observed from a refined pose.
+  std::vector<char> point_free;
+  std::vector<std::vector<int>> constant_intrinsics;
+  // Some of the camera's intrinsics are refined.
+  std::vector<char> camera_free;
+  std::vector<char> readout_free;
+};
+
+FreeParameters ChooseFreeParameters(const BundleProblem& problem,
+                                    const BundleAdjuster::Options& options) {
+  const int num_images = static_cast<int>(problem.images.size());
+  const int num_points = static_cast<int>(problem.points.size());
+  const int num_cameras = static_cast<int>(problem.cameras.size());
+  FreeParameters free_parameters;
+  std::vector<char> image_observed(num_images, 0);
+  free_parameters.point_observed.assign(num_points, 0);
+  for (const BundleObservation& obs : problem.observations) {
+    image_observed[obs.image] = 1;
+    free_parameters.point_observed[obs.point] = 1;
+  }
+  free_parameters.gauge = ChooseGauge(problem, image_observed, options.gauge);
+  free_parameters.point_free.assign(num_points, 0);
+  for (const BundleObservation& obs : problem.observations) {
+    if (!free_parameters.gauge.constant_pose[obs.image]) {
+      free_parameters.point_free[obs.point] = 1;
+    }
+  }
+  free_parameters.constant_intrinsics.resize(num_cameras);
+  free_parameters.camera_free.assign(num_cameras, 0);
+  for (int c = 0; c < num_cameras; ++c) {
+    free_parameters.constant_intrinsics[c] =
+        ConstantIntrinsics(problem.cameras[c], options);
+    free_parameters.camera_free[c] = free_parameters.constant_intrinsics[c].size() <
+                                     problem.cameras[c].params.size();
+  }
+  // A readout time is observable only through moving images.
+  free_parameters.readout_free.assign(num_cameras, 0);
+  if (options.refine_readout_time) {
+    for (const BundleImage& image : problem.images) {
+      if (image.IsMoving()) free_parameters.readout_free[image.camera] = 1;
+    }
+  }
+  return free_parameters;
+}
+
+ceres::Problem::Options ProblemOptionsOwningCostsOnly() {
+  ceres::Problem::Options options;
+  options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  return options;
+}
+
+// The Ceres problem with what it refers to and does not own: the loss, the
+// manifolds and the ordering that eliminates the points first. The problem
+// is declared last so that it is destroyed first.
+struct CeresProblem {
+  explicit CeresProblem(const BundleAdjuster::Options& options)
+      : loss(MakeLoss(options)),
+        ordering(std::make_shared<ceres::ParameterBlockOrdering>()),
+        problem(ProblemOptionsOwningCostsOnly()) {}
+
+  const std::unique_ptr<ceres::LossFunction> loss;
+  ceres::EigenQuaternionManifold quaternion_manifold;
+  std::unique_ptr<ceres::SubsetManifold> scale_manifold;
+  std::vector<std::unique_ptr<ceres::SubsetManifold>> intrinsics_manifolds;
+  const std::shared_ptr<ceres::ParameterBlockOrdering> ordering;
+  ceres::Problem problem;
+};
+
+// The reprojection residuals in the Ceres problem and the blocks they
+// brought in.
+struct AddedResiduals {
+  std::vector<AddedResidual> residuals;
+  // The image's pose blocks are refined.
+  std::vector<char> image_added;
+  // The image's pose blocks are in the problem, held constant.
+  std::vector<char> pose_block_held;
+  std::vector<char> camera_added;
+};
+
+// Observation `o`'s residual, from the cost function that fits what of its
+// image is refined.
+AddedResidual MakeReprojectionResidual(int o, bool pose_free, bool readout_free,
+                                       BundleProblem* problem) {
+  const BundleObservation& obs = problem->observations[o];
+  BundleImage& image = problem->images[obs.image];
+  Camera& camera = problem->cameras[image.camera];
+  AddedResidual residual;
+  residual.observation = o;
+  residual.pose_free = pose_free;
+  if (image.IsMoving() && (pose_free || readout_free)) {
+    // A held pose enters as constant blocks where the readout time is
+    // refined: the folded constant-pose cost has none.
+    residual.cost = CreateRollingShutterReprojectionCost(
+        camera.model_id, obs.pixel, RowTimeFraction(obs.pixel.y(), camera.height),
+        image.angular_velocity, image.linear_velocity);
+    residual.blocks = {image.cam_from_world.rotation.coeffs().data(),
+                       image.cam_from_world.translation.data(),
+                       problem->points[obs.point].data(), camera.params.data(),
+                       &camera.readout_time};
+    residual.point_block = 2;
+  } else if (pose_free) {
+    residual.cost = CreateReprojectionCost(camera.model_id, obs.pixel);
+    residual.blocks = {image.cam_from_world.rotation.coeffs().data(),
+                       image.cam_from_world.translation.data(),
+                       problem->points[obs.point].data(), camera.params.data()};
+    residual.point_block = 2;
+  } else {
+    // A held rolling-shutter image's row time folds in with its pose: the
+    // local BAs of a video hold most of their observers so. A still
+    // image's zero velocities make its row time moot.
+    residual.cost = CreateConstantPoseReprojectionCost(
+        camera.model_id, image.cam_from_world, obs.pixel,
+        RowTimeFraction(obs.pixel.y(), camera.height) * camera.readout_time,
+        image.angular_velocity, image.linear_velocity);
+    residual.blocks = {problem->points[obs.point].data(), camera.params.data()};
+  }
+  return residual;
+}
+
+// Every observation that touches something refined, in observation order,
+// with the robust loss.
+AddedResiduals AddReprojectionResiduals(const FreeParameters& free_parameters,
+                                        BundleProblem* problem,
+                                        CeresProblem* ceres_problem) {
+  const int num_images = static_cast<int>(problem->images.size());
+  AddedResiduals added;
+  added.image_added.assign(num_images, 0);
+  added.pose_block_held.assign(num_images, 0);
+  added.camera_added.assign(problem->cameras.size(), 0);
+  // The costs read a quaternion as a unit one and the manifold's steps keep
+  // its norm: a refined rotation has to start normalised.
+  for (int i = 0; i < num_images; ++i) {
+    if (!free_parameters.gauge.constant_pose[i]) {
+      problem->images[i].cam_from_world.rotation.normalize();
+    }
+  }
+  for (int o = 0; o < static_cast<int>(problem->observations.size()); ++o) {
+    const BundleObservation& obs = problem->observations[o];
+    const int camera = problem->images[obs.image].camera;
+    const bool pose_free = !free_parameters.gauge.constant_pose[obs.image];
+    if (!pose_free && !free_parameters.point_free[obs.point] &&
+        !free_parameters.camera_free[camera] && !free_parameters.readout_free[camera]) {
+      continue;
+    }
+    AddedResidual residual = MakeReprojectionResidual(
+        o, pose_free, free_parameters.readout_free[camera], problem);
+    if (residual.HasPoseBlocks()) {
+      added.image_added[obs.image] = pose_free;
+      added.pose_block_held[obs.image] = !pose_free;
+    }
+    added.camera_added[camera] = 1;
+    ceres_problem->problem.AddResidualBlock(residual.cost, ceres_problem->loss.get(),
+                                            residual.blocks);
+    added.residuals.push_back(std::move(residual));
+  }
+  return added;
+}
+
+// Refined poses on the quaternion manifold, the gauge's scale component held;
+// held pose blocks constant. Returns the number of refined poses.
+int SetPoseBlocks(const AddedResiduals& added, const GaugeChoice& gauge,
+                  BundleProblem* problem, CeresProblem* ceres_problem) {
+  const int num_images = static_cast<int>(problem->images.size());
+  int num_free_images = 0;
+  for (int i = 0; i < num_images; ++i) {
+    if (!added.image_added[i]) continue;
+    ++num_free_images;
+    Rigid3d& pose = problem->images[i].cam_from_world;
+    ceres_problem->problem.SetManifold(pose.rotation.coeffs().data(),
+                                       &ceres_problem->quaternion_manifold);
+    if (i == gauge.scale_image) {
+      ceres_problem->scale_manifold = std::make_unique<ceres::SubsetManifold>(
+          3, std::vector<int>{gauge.scale_axis});
+      ceres_problem->problem.SetManifold(pose.translation.data(),
+                                         ceres_problem->scale_manifold.get());
+    }
+    ceres_problem->ordering->AddElementToGroup(pose.rotation.coeffs().data(), 1);
+    ceres_problem->ordering->AddElementToGroup(pose.translation.data(), 1);
+  }
+  for (int i = 0; i < num_images; ++i) {
+    if (!added.pose_block_held[i]) continue;
+    Rigid3d& pose = problem->images[i].cam_from_world;
+    ceres_problem->problem.SetParameterBlockConstant(pose.rotation.coeffs().data());
+    ceres_problem->problem.SetParameterBlockConstant(pose.translation.data());
+    ceres_problem->ordering->AddElementToGroup(pose.rotation.coeffs().data(), 1);
+    ceres_problem->ordering->AddElementToGroup(pose.translation.data(), 1);
+  }
+  return num_free_images;
+}
+
+// Free points are eliminated first; held ones are constant. Returns the
+// number of free points.
+int SetPointBlocks(const FreeParameters& free_parameters, BundleProblem* problem,
+                   CeresProblem* ceres_problem) {
+  int num_free_points = 0;
+  for (int p = 0; p < static_cast<int>(problem->points.size()); ++p) {
+    if (!free_parameters.point_observed[p]) continue;
+    double* point = problem->points[p].data();
+    if (!ceres_problem->problem.HasParameterBlock(point)) continue;
+    if (free_parameters.point_free[p]) {
+      ++num_free_points;
+      ceres_problem->ordering->AddElementToGroup(point, 0);
+    } else {
+      ceres_problem->problem.SetParameterBlockConstant(point);
+      ceres_problem->ordering->AddElementToGroup(point, 1);
+    }
+  }
+  return num_free_points;
+}
+
+// A refined readout time within +-max_readout_time_seconds, widened to hold
+// its start; a held one constant.
+void SetReadoutBlock(bool readout_free, const BundleAdjuster::Options& options,
+                     double* readout, CeresProblem* ceres_problem) {
+  if (!ceres_problem->problem.HasParameterBlock(readout)) return;
+  ceres_problem->ordering->AddElementToGroup(readout, 1);
+  if (readout_free) {
+    const double reach = options.max_readout_time_seconds;
+    ceres_problem->problem.SetParameterLowerBound(readout, 0, std::min(*readout, -reach));
+    ceres_problem->problem.SetParameterUpperBound(readout, 0, std::max(*readout, reach));
+  } else {
+    ceres_problem->problem.SetParameterBlockConstant(readout);
+  }
+}
+
+// The safeguards of refined intrinsics (Options::max_focal_length_change,
+// max_principal_point_offset) as bounds of the solve.
+void BoundIntrinsics(const BundleAdjuster::Options& options, Camera* camera,
+                     ceres::Problem* problem) {
+  double* params = camera->params.data();
+  const int num_focal = camera->NumFocalParams();
+  if (options.refine_focal_length) {
+    for (int i = 0; i < num_focal; ++i) {
+      problem->SetParameterLowerBound(params, i, params[i] / options.max_focal_length_change);
+      problem->SetParameterUpperBound(params, i, params[i] * options.max_focal_length_change);
+    }
+  }
+  if (options.refine_principal_point) {
+    const double size[2] = {double(camera->width), double(camera->height)};
+    for (int axis = 0; axis < 2; ++axis) {
+      // A start outside the bounds (a caller's camera) widens them: Ceres
+      // needs a feasible start.
+      const double pp = params[num_focal + axis];
+      const double centre = (size[axis] - 1) / 2;
+      const double reach = options.max_principal_point_offset * size[axis];
+      problem->SetParameterLowerBound(params, num_focal + axis, std::min(pp, centre - reach));
+      problem->SetParameterUpperBound(params, num_focal + axis, std::max(pp, centre + reach));
+    }
+  }
+}
+
+// Each camera in the problem: its readout time, and its intrinsics, constant
+// or refined in part through a SubsetManifold, within their bounds.
+void SetCameraBlocks(const FreeParameters& free_parameters,
+                     const std::vector<char>& camera_added,
+                     const BundleAdjuster::Options& options, BundleProblem* problem,
+                     CeresProblem* ceres_problem) {
+  for (int c = 0; c < static_cast<int>(problem->cameras.size()); ++c) {
+    if (!camera_added[c]) continue;
+    Camera& camera = problem->cameras[c];
+    SetReadoutBlock(free_parameters.readout_free[c], options, &camera.readout_time,
+                    ceres_problem);
+    double* params = camera.params.data();
+    ceres_problem->ordering->AddElementToGroup(params, 1);
+    if (!free_parameters.camera_free[c]) {
+      ceres_problem->problem.SetParameterBlockConstant(params);
+      continue;
+    }
+    if (!free_parameters.constant_intrinsics[c].empty()) {
+      ceres_problem->intrinsics_manifolds.push_back(std::make_unique<ceres::SubsetManifold>(
+          camera.NumParams(), free_parameters.constant_intrinsics[c]));
+      ceres_problem->problem.SetManifold(params,
+                                         ceres_problem->intrinsics_manifolds.back().get());
+    }
+    BoundIntrinsics(options, &camera, &ceres_problem->problem);
+  }
+}
+
+// The hierarchical weights: a prior on each refined pose with p > 1, from its
+// information at the start (WeightedPoseInformation). Returns their number.
+int AddPosePriors(const AddedResiduals& added, const std::vector<char>& point_free,
+                  BundleProblem* problem, CeresProblem* ceres_problem) {
+  const int num_images = static_cast<int>(problem->images.size());
+  std::vector<char> weighted(num_images, 0);
+  bool any_weighted = false;
+  for (int i = 0; i < num_images; ++i) {
+    weighted[i] = added.image_added[i] && problem->images[i].weight > 1.0;
+    any_weighted = any_weighted || weighted[i];
+  }
+  if (!any_weighted) return 0;
+  const std::vector<Matrix6d> information = WeightedPoseInformation(
+      *problem, added.residuals, weighted, point_free, ceres_problem->loss.get());
+  int num_priors = 0;
+  for (int i = 0; i < num_images; ++i) {
+    if (!weighted[i]) continue;
+    Rigid3d& pose = problem->images[i].cam_from_world;
+    ceres_problem->problem.AddResidualBlock(
+        CreatePosePriorCost(pose, PriorSqrtInformation(information[i],
+                                                       problem->images[i].weight)),
+        nullptr, pose.rotation.coeffs().data(), pose.translation.data());
+    ++num_priors;
+  }
+  return num_priors;
+}
+
+// The linear solver by the problem's size (Options, "Linear solver") and the
+// options' limits.
+ceres::Solver::Options MakeSolverOptions(
+    const BundleAdjuster::Options& options, int num_free_images, int num_free_points,
+    const BundleProblem& problem, const std::vector<AddedResidual>& residuals,
+    const std::shared_ptr<ceres::ParameterBlockOrdering>& ordering) {
+  ceres::Solver::Options solver_options;
+  if (num_free_points == 0) {
+    solver_options.linear_solver_type = num_free_images <= options.dense_schur_max_images
+                                            ? ceres::DENSE_QR
+                                            : ceres::SPARSE_NORMAL_CHOLESKY;
+  } else {
+    solver_options.linear_solver_ordering = ordering;
+    if (WeightedMeanTrackLength(problem, residuals) > options.iterative_schur_min_track_length) {
+      solver_options.linear_solver_type = ceres::ITERATIVE_SCHUR;
+      solver_options.preconditioner_type = ceres::SCHUR_JACOBI;
+    } else if (num_free_images <= options.dense_schur_max_images) {
+      solver_options.linear_solver_type = ceres::DENSE_SCHUR;
+    } else if (num_free_images <= options.sparse_schur_max_images) {
+      solver_options.linear_solver_type = ceres::SPARSE_SCHUR;
+    } else {
+      solver_options.linear_solver_type = ceres::ITERATIVE_SCHUR;
+      solver_options.preconditioner_type = ceres::SCHUR_JACOBI;
+    }
+  }
+  solver_options.sparse_linear_algebra_library_type = ceres::SUITE_SPARSE;
+  solver_options.max_num_iterations = options.max_num_iterations;
+  solver_options.max_solver_time_in_seconds = options.max_solver_time_seconds;
+  solver_options.function_tolerance = options.function_tolerance;
+  solver_options.gradient_tolerance = options.gradient_tolerance;
+  solver_options.parameter_tolerance = options.parameter_tolerance;
+  solver_options.num_threads = options.num_threads;
+  solver_options.logging_type = ceres::SILENT;
+  solver_options.minimizer_progress_to_stdout = false;
+  return solver_options;
+}
+
+// The solve's figures into `summary`, after the refined rotations are
+// normalised again.
+void ReadCeresSummary(const ceres::Solver::Summary& ceres_summary,
+                      ceres::LinearSolverType linear_solver, const BundleProblem& problem,
+                      const std::vector<AddedResidual>& residuals,
+                      BundleAdjuster::Summary* summary) {
+  summary->linear_solver = ceres::LinearSolverTypeToString(linear_solver);
+  summary->initial_cost = ceres_summary.initial_cost;
+  summary->final_cost = ceres_summary.final_cost;
+  summary->final_mean_reprojection_error_px = MeanReprojectionError(problem, residuals);
+  // Ceres lists the evaluation at the start as iteration 0.
+  summary->num_iterations = std::max(0, static_cast<int>(ceres_summary.iterations.size()) - 1);
+  summary->solver_time_seconds = ceres_summary.total_time_in_seconds;
+  summary->termination = ToTermination(ceres_summary);
+  summary->message = ceres_summary.message;
+}
+
 }  // namespace
 
 bool BundleAdjuster::Options::Check() const {
@@ -295,103 +661,18 @@ BundleAdjuster::BundleAdjuster(const Options& options) : options_(options) {
 BundleAdjuster::Summary BundleAdjuster::Solve(BundleProblem* problem) const {
   const Clock::time_point start = Clock::now();
   FLYSFM_CHECK(problem != nullptr && problem->Check());
-  const int num_images = static_cast<int>(problem->images.size());
-  const int num_points = static_cast<int>(problem->points.size());
-  const int num_cameras = static_cast<int>(problem->cameras.size());
-
-  std::vector<char> image_observed(num_images, 0);
-  std::vector<char> point_observed(num_points, 0);
-  for (const BundleObservation& obs : problem->observations) {
-    image_observed[obs.image] = 1;
-    point_observed[obs.point] = 1;
-  }
-  const GaugeChoice gauge = ChooseGauge(*problem, image_observed, options_.gauge);
-  std::vector<char> point_free(num_points, 0);
-  for (const BundleObservation& obs : problem->observations) {
-    if (!gauge.constant_pose[obs.image]) point_free[obs.point] = 1;
-  }
-  std::vector<std::vector<int>> constant_intrinsics(num_cameras);
-  std::vector<char> camera_free(num_cameras, 0);
-  for (int c = 0; c < num_cameras; ++c) {
-    constant_intrinsics[c] = ConstantIntrinsics(problem->cameras[c], options_);
-    camera_free[c] = constant_intrinsics[c].size() <
-                     problem->cameras[c].params.size();
-  }
-  // A readout time is observable only through moving images.
-  std::vector<char> readout_free(num_cameras, 0);
-  if (options_.refine_readout_time) {
-    for (const BundleImage& image : problem->images) {
-      if (image.IsMoving()) readout_free[image.camera] = 1;
-    }
-  }
-
-  ceres::Problem::Options problem_options;
-  problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
-  problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
-  ceres::Problem ceres_problem(problem_options);
-  const std::unique_ptr<ceres::LossFunction> loss = MakeLoss(options_);
-
-  std::vector<AddedResidual> residuals;
-  std::vector<char> image_added(num_images, 0);
-  std::vector<char> camera_added(num_cameras, 0);
-  std::vector<char> pose_block_held(num_images, 0);
-  for (int i = 0; i < num_images; ++i) {
-    if (!gauge.constant_pose[i]) problem->images[i].cam_from_world.rotation.normalize();
-  }
-  for (int o = 0; o < static_cast<int>(problem->observations.size()); ++o) {
-    const BundleObservation& obs = problem->observations[o];
-    BundleImage& image = problem->images[obs.image];
-    const bool pose_free = !gauge.constant_pose[obs.image];
-    if (!pose_free && !point_free[obs.point] && !camera_free[image.camera] &&
-        !readout_free[image.camera]) {
-      continue;
-    }
-    Camera& camera = problem->cameras[image.camera];
-    AddedResidual residual;
-    residual.observation = o;
-    residual.pose_free = pose_free;
-    if (image.IsMoving() && (pose_free || readout_free[image.camera])) {
-      // A held pose enters as constant blocks where the readout time is
-      // refined: the folded constant-pose cost has none.
-      residual.cost = CreateRollingShutterReprojectionCost(
-          camera.model_id, obs.pixel, RowTimeFraction(obs.pixel.y(), camera.height),
-          image.angular_velocity, image.linear_velocity);
-      residual.blocks = {image.cam_from_world.rotation.coeffs().data(),
-                         image.cam_from_world.translation.data(),
-                         problem->points[obs.point].data(), camera.params.data(),
-                         &camera.readout_time};
-      residual.point_block = 2;
-      image_added[obs.image] = pose_free;
-      pose_block_held[obs.image] = !pose_free;
-    } else if (pose_free) {
-      residual.cost = CreateReprojectionCost(camera.model_id, obs.pixel);
-      residual.blocks = {image.cam_from_world.rotation.coeffs().data(),
-                         image.cam_from_world.translation.data(),
-                         problem->points[obs.point].data(), camera.params.data()};
-      residual.point_block = 2;
-      image_added[obs.image] = 1;
-    } else {
-      // A held rolling-shutter image's row time folds in with its pose: the
-      // local BAs of a video hold most of their observers so. A still
-      // image's zero velocities make its row time moot.
-      residual.cost = CreateConstantPoseReprojectionCost(
-          camera.model_id, image.cam_from_world, obs.pixel,
-          RowTimeFraction(obs.pixel.y(), camera.height) * camera.readout_time,
-          image.angular_velocity, image.linear_velocity);
-      residual.blocks = {problem->points[obs.point].data(), camera.params.data()};
-    }
-    camera_added[image.camera] = 1;
-    ceres_problem.AddResidualBlock(residual.cost, loss.get(), residual.blocks);
-    residuals.push_back(std::move(residual));
-  }
+  const FreeParameters free_parameters = ChooseFreeParameters(*problem, options_);
+  CeresProblem ceres_problem(options_);
+  const AddedResiduals added =
+      AddReprojectionResiduals(free_parameters, problem, &ceres_problem);
 
   Summary summary;
-  summary.num_images = num_images;
-  summary.num_points = num_points;
-  summary.num_residuals = static_cast<int>(residuals.size());
+  summary.num_images = static_cast<int>(problem->images.size());
+  summary.num_points = static_cast<int>(problem->points.size());
+  summary.num_residuals = static_cast<int>(added.residuals.size());
   summary.initial_mean_reprojection_error_px =
-      MeanReprojectionError(*problem, residuals);
-  if (residuals.empty()) {
+      MeanReprojectionError(*problem, added.residuals);
+  if (added.residuals.empty()) {
     summary.termination = Termination::kConvergence;
     summary.message = "nothing to refine";
     summary.final_mean_reprojection_error_px =
@@ -400,166 +681,27 @@ BundleAdjuster::Summary BundleAdjuster::Solve(BundleProblem* problem) const {
     return summary;
   }
 
-  ceres::EigenQuaternionManifold quaternion_manifold;
-  std::unique_ptr<ceres::SubsetManifold> scale_manifold;
-  std::vector<std::unique_ptr<ceres::SubsetManifold>> intrinsics_manifolds;
-  auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
-  for (int i = 0; i < num_images; ++i) {
-    if (!image_added[i]) continue;
-    ++summary.num_free_images;
-    Rigid3d& pose = problem->images[i].cam_from_world;
-    ceres_problem.SetManifold(pose.rotation.coeffs().data(),
-                              &quaternion_manifold);
-    if (i == gauge.scale_image) {
-      scale_manifold = std::make_unique<ceres::SubsetManifold>(
-          3, std::vector<int>{gauge.scale_axis});
-      ceres_problem.SetManifold(pose.translation.data(), scale_manifold.get());
-    }
-    ordering->AddElementToGroup(pose.rotation.coeffs().data(), 1);
-    ordering->AddElementToGroup(pose.translation.data(), 1);
-  }
-  for (int i = 0; i < num_images; ++i) {
-    if (!pose_block_held[i]) continue;
-    Rigid3d& pose = problem->images[i].cam_from_world;
-    ceres_problem.SetParameterBlockConstant(pose.rotation.coeffs().data());
-    ceres_problem.SetParameterBlockConstant(pose.translation.data());
-    ordering->AddElementToGroup(pose.rotation.coeffs().data(), 1);
-    ordering->AddElementToGroup(pose.translation.data(), 1);
-  }
-  for (int p = 0; p < num_points; ++p) {
-    if (!point_observed[p]) continue;
-    double* point = problem->points[p].data();
-    if (!ceres_problem.HasParameterBlock(point)) continue;
-    if (point_free[p]) {
-      ++summary.num_free_points;
-      ordering->AddElementToGroup(point, 0);
-    } else {
-      ceres_problem.SetParameterBlockConstant(point);
-      ordering->AddElementToGroup(point, 1);
-    }
-  }
-  for (int c = 0; c < num_cameras; ++c) {
-    if (!camera_added[c]) continue;
-    double* readout = &problem->cameras[c].readout_time;
-    if (ceres_problem.HasParameterBlock(readout)) {
-      ordering->AddElementToGroup(readout, 1);
-      if (readout_free[c]) {
-        const double reach = options_.max_readout_time_seconds;
-        ceres_problem.SetParameterLowerBound(readout, 0, std::min(*readout, -reach));
-        ceres_problem.SetParameterUpperBound(readout, 0, std::max(*readout, reach));
-      } else {
-        ceres_problem.SetParameterBlockConstant(readout);
-      }
-    }
-    double* params = problem->cameras[c].params.data();
-    ordering->AddElementToGroup(params, 1);
-    if (!camera_free[c]) {
-      ceres_problem.SetParameterBlockConstant(params);
-      continue;
-    }
-    const Camera& camera = problem->cameras[c];
-    if (!constant_intrinsics[c].empty()) {
-      intrinsics_manifolds.push_back(std::make_unique<ceres::SubsetManifold>(
-          camera.NumParams(), constant_intrinsics[c]));
-      ceres_problem.SetManifold(params, intrinsics_manifolds.back().get());
-    }
-    const int num_focal = camera.NumFocalParams();
-    if (options_.refine_focal_length) {
-      for (int i = 0; i < num_focal; ++i) {
-        ceres_problem.SetParameterLowerBound(params, i,
-                                             params[i] / options_.max_focal_length_change);
-        ceres_problem.SetParameterUpperBound(params, i,
-                                             params[i] * options_.max_focal_length_change);
-      }
-    }
-    if (options_.refine_principal_point) {
-      const double size[2] = {double(camera.width), double(camera.height)};
-      for (int axis = 0; axis < 2; ++axis) {
-        // A start outside the bounds (a caller's camera) widens them: Ceres
-        // needs a feasible start.
-        const double pp = params[num_focal + axis];
-        const double centre = (size[axis] - 1) / 2;
-        const double reach = options_.max_principal_point_offset * size[axis];
-        ceres_problem.SetParameterLowerBound(params, num_focal + axis,
-                                             std::min(pp, centre - reach));
-        ceres_problem.SetParameterUpperBound(params, num_focal + axis,
-                                             std::max(pp, centre + reach));
-      }
-    }
-  }
+  summary.num_free_images =
+      SetPoseBlocks(added, free_parameters.gauge, problem, &ceres_problem);
+  summary.num_free_points = SetPointBlocks(free_parameters, problem, &ceres_problem);
+  SetCameraBlocks(free_parameters, added.camera_added, options_, problem, &ceres_problem);
+  summary.num_pose_priors =
+      AddPosePriors(added, free_parameters.point_free, problem, &ceres_problem);
 
-  std::vector<char> weighted(num_images, 0);
-  bool any_weighted = false;
-  for (int i = 0; i < num_images; ++i) {
-    weighted[i] = image_added[i] && problem->images[i].weight > 1.0;
-    any_weighted = any_weighted || weighted[i];
-  }
-  if (any_weighted) {
-    const std::vector<Matrix6d> information = WeightedPoseInformation(
-        *problem, residuals, weighted, point_free, loss.get());
-    for (int i = 0; i < num_images; ++i) {
-      if (!weighted[i]) continue;
-      Rigid3d& pose = problem->images[i].cam_from_world;
-      ceres_problem.AddResidualBlock(
-          CreatePosePriorCost(pose, PriorSqrtInformation(
-                                        information[i], problem->images[i].weight)),
-          nullptr, pose.rotation.coeffs().data(), pose.translation.data());
-      ++summary.num_pose_priors;
-    }
-  }
-
-  ceres::Solver::Options solver_options;
-  const int num_free_images = summary.num_free_images;
-  if (summary.num_free_points == 0) {
-    solver_options.linear_solver_type =
-        num_free_images <= options_.dense_schur_max_images
-            ? ceres::DENSE_QR
-            : ceres::SPARSE_NORMAL_CHOLESKY;
-  } else {
-    solver_options.linear_solver_ordering = ordering;
-    if (WeightedMeanTrackLength(*problem, residuals) > options_.iterative_schur_min_track_length) {
-      solver_options.linear_solver_type = ceres::ITERATIVE_SCHUR;
-      solver_options.preconditioner_type = ceres::SCHUR_JACOBI;
-    } else if (num_free_images <= options_.dense_schur_max_images) {
-      solver_options.linear_solver_type = ceres::DENSE_SCHUR;
-    } else if (num_free_images <= options_.sparse_schur_max_images) {
-      solver_options.linear_solver_type = ceres::SPARSE_SCHUR;
-    } else {
-      solver_options.linear_solver_type = ceres::ITERATIVE_SCHUR;
-      solver_options.preconditioner_type = ceres::SCHUR_JACOBI;
-    }
-  }
-  solver_options.sparse_linear_algebra_library_type = ceres::SUITE_SPARSE;
-  solver_options.max_num_iterations = options_.max_num_iterations;
-  solver_options.max_solver_time_in_seconds = options_.max_solver_time_seconds;
-  solver_options.function_tolerance = options_.function_tolerance;
-  solver_options.gradient_tolerance = options_.gradient_tolerance;
-  solver_options.parameter_tolerance = options_.parameter_tolerance;
-  solver_options.num_threads = options_.num_threads;
-  solver_options.logging_type = ceres::SILENT;
-  solver_options.minimizer_progress_to_stdout = false;
-
+  ceres::Solver::Options solver_options =
+      MakeSolverOptions(options_, summary.num_free_images, summary.num_free_points,
+                        *problem, added.residuals, ceres_problem.ordering);
   StopCallback stop_callback(options_.should_stop);
   if (options_.should_stop) solver_options.callbacks.push_back(&stop_callback);
-
   ceres::Solver::Summary ceres_summary;
-  ceres::Solve(solver_options, &ceres_problem, &ceres_summary);
+  ceres::Solve(solver_options, &ceres_problem.problem, &ceres_summary);
 
-  for (int i = 0; i < num_images; ++i) {
-    if (image_added[i]) problem->images[i].cam_from_world.rotation.normalize();
+  // Ceres' steps keep a quaternion's norm only to rounding.
+  for (int i = 0; i < summary.num_images; ++i) {
+    if (added.image_added[i]) problem->images[i].cam_from_world.rotation.normalize();
   }
-  summary.linear_solver =
-      ceres::LinearSolverTypeToString(solver_options.linear_solver_type);
-  summary.initial_cost = ceres_summary.initial_cost;
-  summary.final_cost = ceres_summary.final_cost;
-  summary.final_mean_reprojection_error_px =
-      MeanReprojectionError(*problem, residuals);
-  // Ceres lists the evaluation at the start as iteration 0.
-  summary.num_iterations =
-      std::max(0, static_cast<int>(ceres_summary.iterations.size()) - 1);
-  summary.solver_time_seconds = ceres_summary.total_time_in_seconds;
-  summary.termination = ToTermination(ceres_summary);
-  summary.message = ceres_summary.message;
+  ReadCeresSummary(ceres_summary, solver_options.linear_solver_type, *problem,
+                   added.residuals, &summary);
   summary.total_time_seconds = SecondsSince(start);
   return summary;
 }

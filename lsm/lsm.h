@@ -214,6 +214,63 @@ class LsmMatcher {
 
  private:
   struct Warp;
+  struct TemplateWindow;
+  struct Estimate;
+
+  // The steps of Match. Those that can reject the point return false and
+  // set `failure` to the reason.
+
+  // Places the template (PlaceTemplate), copies it (CopyTemplate) and
+  // rejects it when it has too little texture.
+  bool SampleTemplate(const LsmImage& image1, const Eigen::Vector2d& point1,
+                      const Eigen::Vector2d& window_offset,
+                      TemplateWindow* window, LsmStatus* failure);
+  // Centres the window on the whole pixel nearest to point1 + window_offset;
+  // false when the window with its one-pixel border leaves image 1.
+  bool PlaceTemplate(const LsmImage& image1, const Eigen::Vector2d& point1,
+                     const Eigen::Vector2d& window_offset,
+                     TemplateWindow* window) const;
+  // Fills template_ and template_border_; returns the template's mean
+  // structure tensor (central differences).
+  Eigen::Matrix2d CopyTemplate(const LsmImage& image1,
+                               const TemplateWindow& window);
+  // The Jacobian (FillJacobian) and the normal matrix, factorised once for
+  // every iteration of the point.
+  bool BuildNormalEquations(const LsmImage& image1, TemplateWindow* window,
+                            LsmStatus* failure);
+  void FillJacobian(const LsmImage& image1, const TemplateWindow& window);
+  // The start in image 2: the given position and affine part, the
+  // radiometric parameters from the windows' means and contrasts.
+  bool StartEstimate(const LsmImage& image2, const Eigen::Vector2d& point2,
+                     const Eigen::Matrix2d& affine,
+                     const TemplateWindow& window, Estimate* estimate,
+                     LsmStatus* failure);
+  // Steps until converged (kConverged), diverged (kDiverged), out of image 2
+  // (kOutsideImage) or out of iterations (kNoConvergence).
+  LsmStatus Iterate(const LsmImage& image2, const TemplateWindow& window,
+                    Estimate* estimate, int* num_iterations);
+  // The affine and radiometric update from the normal equations, damped by
+  // `lambda` when `damped`; its geometric part is scaled by the gain.
+  Eigen::Matrix<double, 8, 1> SolveScaledStep(
+      const TemplateWindow& window, bool damped, double lambda,
+      const Eigen::Matrix<double, 8, 1>& gradient) const;
+  // Composes `warp` with the inverted update into `next`; false when either
+  // is non-finite, flipped or stretched beyond max_affine_scale.
+  bool ComposeStep(const Warp& warp,
+                   const Eigen::Matrix<double, 8, 1>& scaled_step,
+                   Warp* next) const;
+  // How far a step moves the match, compared with convergence_shift_px.
+  double StepShift(const Warp& warp, const Warp& next,
+                   const Eigen::Vector2d& offset1) const;
+  // The estimate's position, affine part, radiometry, NCC and sigma0.
+  void WriteEstimate(const LsmImage& image2, const TemplateWindow& window,
+                     const Estimate& estimate, LsmResult* result) const;
+  // The status of a converged match (its shift from `start2`, the normal
+  // matrix's condition, the NCC) and, when accepted, its covariance.
+  LsmStatus JudgeConverged(const Eigen::Vector2d& start2,
+                           const TemplateWindow& window,
+                           const Estimate& estimate, LsmResult* result) const;
+
   // Samples the window under `warp` into warped_[buffer]; false when it
   // leaves the image.
   bool Sample(const LsmImage& image, const Warp& warp, int buffer);

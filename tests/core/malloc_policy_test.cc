@@ -5,6 +5,8 @@
 #include <cstdlib>
 #include <cstring>
 #include <future>
+#include <iostream>
+#include <string>
 #include <vector>
 
 #include <catch2/catch.hpp>
@@ -23,6 +25,15 @@ constexpr bool kSanitizerAllocator = false;
 #else
 constexpr bool kSanitizerAllocator = false;
 #endif
+
+// Ends the test as skipped the way tests/testing/skip.h does (exit code 77,
+// which CTest reports as skipped), but whatever FLYSFM_REQUIRE_DATA says:
+// nothing is missing here that CI could provide, and CI runs its sanitizer
+// builds with FLYSFM_REQUIRE_DATA=1, where testing::SkipTest fails instead.
+[[noreturn]] void SkipTestUnconditionally(const std::string& why) {
+  std::cout << "skipped: " << why << std::endl;
+  std::exit(77);
+}
 
 // What one image's SIFT does on a thread of its own: blocks of 27 MB (a
 // layer of a 1 600-pixel copy, doubled) written and freed. Returns that
@@ -46,9 +57,12 @@ long FaultsOfOneImagesThread() {
 }
 
 TEST_CASE("ApplyMallocPolicy: the next image's thread reuses the pages of the last one's") {
-  const bool applied = ApplyMallocPolicy();
-  if (kSanitizerAllocator) return;  // their allocators keep memory their own way
-  REQUIRE(applied);
+  if (kSanitizerAllocator) {
+    SkipTestUnconditionally(
+        "built with AddressSanitizer or ThreadSanitizer, whose allocator serves malloc "
+        "whatever mallopt sets: there is no glibc arena whose pages to count");
+  }
+  REQUIRE(ApplyMallocPolicy());
   const long first = FaultsOfOneImagesThread();
   const long second = FaultsOfOneImagesThread();
   // The first thread faults its 162 MB in once (41 472 pages of 4 kB, fewer
