@@ -11,6 +11,8 @@
 
 #include <catch2/catch.hpp>
 
+#include "tests/testing/skip.h"
+
 namespace flysfm {
 namespace {
 
@@ -25,15 +27,6 @@ constexpr bool kSanitizerAllocator = false;
 #else
 constexpr bool kSanitizerAllocator = false;
 #endif
-
-// Ends the test as skipped the way tests/testing/skip.h does (exit code 77,
-// which CTest reports as skipped), but whatever FLYSFM_REQUIRE_DATA says:
-// nothing is missing here that CI could provide, and CI runs its sanitizer
-// builds with FLYSFM_REQUIRE_DATA=1, where testing::SkipTest fails instead.
-[[noreturn]] void SkipTestUnconditionally(const std::string& why) {
-  std::cout << "skipped: " << why << std::endl;
-  std::exit(77);
-}
 
 // What one image's SIFT does on a thread of its own: blocks of 27 MB (a
 // layer of a 1 600-pixel copy, doubled) written and freed. Returns that
@@ -58,7 +51,7 @@ long FaultsOfOneImagesThread() {
 
 TEST_CASE("ApplyMallocPolicy: the next image's thread reuses the pages of the last one's") {
   if (kSanitizerAllocator) {
-    SkipTestUnconditionally(
+    testing::SkipInThisBuild(
         "built with AddressSanitizer or ThreadSanitizer, whose allocator serves malloc "
         "whatever mallopt sets: there is no glibc arena whose pages to count");
   }

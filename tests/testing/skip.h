@@ -12,4 +12,9 @@ namespace flysfm::testing {
 // prints "failed: <why>" and exits with 1 instead.
 [[noreturn]] void SkipTest(const std::string& why);
 
+// Ends a test that cannot run in this build at all (under a sanitizer whose
+// allocator replaces glibc's, say): "skipped: <why>", exit 77, whatever
+// FLYSFM_REQUIRE_DATA says, since nothing CI could provide is missing.
+[[noreturn]] void SkipInThisBuild(const std::string& why);
+
 }  // namespace flysfm::testing
