@@ -151,7 +151,7 @@ ExtractionFigures BenchExtraction() {
   for (const cv::Mat& image : images) features.push_back(ExtractFeatures(image, sift));
   f.sift_ms = MsSince(start) / f.frames;
   // Reference under the same machine load: OpenCV's SIFT alone on the grey
-  // frame, uncapped (the ANCHORS.md figure: 53 ms on an idle machine).
+  // frame, uncapped (docs/peers.md: 53 ms on an idle machine).
   cv::Ptr<cv::SIFT> sift_alone = cv::SIFT::create();
   start = Clock::now();
   for (const cv::Mat& image : images) {

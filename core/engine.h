@@ -43,7 +43,7 @@ namespace flysfm {
 
 // A frame decoded, in grey, and its features: the part of AddImage that
 // needs nothing of the model. The ingest side may prepare the next image on
-// the second core while the engine works on this one (ARCHITECTURE.md).
+// the second core while the engine works on this one (docs/architecture.md).
 struct PreparedFrame {
   Frame frame;    // name and times; the encoded bytes are released
   cv::Mat image;  // BGR, perhaps reduced (DecodedImage); empty when decoding failed

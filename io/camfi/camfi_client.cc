@@ -282,7 +282,7 @@ void CamfiSource::RunSession() {
   const HttpLimits control{options_.control_timeout, 0, options_.max_body_bytes};
   const HttpResult info = http_.Get("/info", control, &stopping_);
   if (info.status == 404) {
-    // Firmware older than /info (camfi.md 1): version 1.0.0.0.
+    // Firmware older than /info (docs/camfi.md 1): version 1.0.0.0.
   } else if (info.status == 401) {
     throw std::runtime_error("the device asks for a password (--camfi-password)");
   } else if (info.status != 200) {

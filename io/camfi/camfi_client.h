@@ -1,6 +1,6 @@
 #pragma once
 
-// Live images from a CAMFI WiFi transmitter (../shared/camfi.md): the REST
+// Live images from a CAMFI WiFi transmitter (docs/camfi.md): the REST
 // port for probing, listing and downloading, the Engine.IO v3 event channel
 // for `file_added`. A session runs
 //   probe (/info, /camera) -> events open -> /tether/start -> reconcile
@@ -47,7 +47,7 @@
 namespace flysfm {
 
 struct CamfiOptions {
-  // AP-mode default address of the device (camfi.md 1).
+  // AP-mode default address of the device (docs/camfi.md 1).
   std::string host = "192.168.9.67";
   int http_port = 80;
   int event_port = 8080;
@@ -69,10 +69,10 @@ struct CamfiOptions {
   bool fetch_existing = false;
   // Extensions (lower case) that are fetched; other files are skipped.
   std::vector<std::string> extensions = {".jpg", ".jpeg"};
-  // Placeholder paths some firmware announces (camfi.md 3.3).
+  // Placeholder paths some firmware announces (docs/camfi.md 3.3).
   std::vector<std::string> ignore_paths = {"/foo.jpg"};
   // Device paths under this prefix are served by `cache_route`, others by
-  // /raw/ (camfi.md 2.2).
+  // /raw/ (docs/camfi.md 2.2).
   std::string cache_prefix = "/tmp/sd/DCIM/";
   std::string cache_route = "/cache/image/";
   // Download attempts per shot before it waits for the next listing.
@@ -100,7 +100,7 @@ struct CamfiOptions {
   double backoff_max_seconds = 5;
   // Engine.IO protocol: 3 (socket.io 1.x/2.x; every known CAMFI client) or
   // 4 (server pings, client joins the namespace with "40"), for firmware
-  // that may move on (camfi.md 3.1).
+  // that may move on (docs/camfi.md 3.1).
   int engine_io_version = 3;
   // Overrides the device's pingInterval / pingTimeout when > 0 (ms).
   int ping_interval_override_ms = 0;

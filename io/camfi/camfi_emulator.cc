@@ -286,7 +286,7 @@ void CamfiEmulator::SetUpRoutes() {
     };
   };
   // /image/ (preview) and /thumbnail/ serve the original too: their real
-  // resolution is unknown (camfi.md 2.1).
+  // resolution is unknown (docs/camfi.md 2.1).
   server_->Get("/raw/.*", serve_file("/raw/"));
   server_->Get("/image/.*", serve_file("/image/"));
   server_->Get("/thumbnail/.*", serve_file("/thumbnail/"));

@@ -1,7 +1,7 @@
 #pragma once
 
 // A local stand-in for a CAMFI transmitter, for users without the hardware
-// and for tests: the confirmed REST routes (../shared/camfi.md 2.1) on one
+// and for tests: the confirmed REST routes (docs/camfi.md 2.1) on one
 // port, the Engine.IO v3 event channel (WebSocket transport) on another,
 // both bound to 127.0.0.1 only. A folder of JPEGs is "shot" one by one onto a
 // fake card under gphoto2-style paths (/store_00010001/DCIM/100CANON/
@@ -158,7 +158,7 @@ class CamfiEmulator {
   int card_files_ = 0;
   int files_failures_left_ = 0;
   bool client_seen_ = false;
-  // POST /tether/start arms the events of shutter-button shots (camfi.md 2.1).
+  // POST /tether/start arms the events of shutter-button shots (docs/camfi.md 2.1).
   bool tethered_ = false;
   // Card path -> shot index of every file shot so far, in shot order.
   std::vector<std::string> card_;

@@ -2,7 +2,7 @@
 
 // HTTP calls to a CAMFI transmitter's REST port through libcurl. The request
 // target is sent exactly as given: a device path encoded with "/" as %2F must
-// reach the device as %2F (../shared/camfi.md 2.2), and libcurl neither
+// reach the device as %2F (docs/camfi.md 2.2), and libcurl neither
 // decodes it nor (with PATH_AS_IS) normalises the path.
 
 #include <atomic>
@@ -43,7 +43,7 @@ class CamfiHttp {
  public:
   // `password` empty: no credentials. Otherwise user "CamFi" with this
   // password, in whichever scheme (Basic, Digest) the device asks for: the
-  // scheme is not known (camfi.md 2.3).
+  // scheme is not known (docs/camfi.md 2.3).
   CamfiHttp(std::string host, int port, std::string password);
 
   // A set `*abort` ends a transfer early (error "aborted").

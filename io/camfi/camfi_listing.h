@@ -1,6 +1,6 @@
 #pragma once
 
-// The card listing, GET /files/<start>/<count> (../shared/camfi.md 2.1): a
+// The card listing, GET /files/<start>/<count> (docs/camfi.md 2.1): a
 // JSON array of device paths, in an undocumented order, possibly fewer than
 // asked for. A device may page by less than `count`, or ignore `start` and
 // answer the same page every time, so the listing ends on what the pages

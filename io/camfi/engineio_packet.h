@@ -1,7 +1,7 @@
 #pragma once
 
 // The few Engine.IO v3 / Socket.IO (protocol rev 4) packets a CAMFI event
-// channel uses (../shared/camfi.md 3.2), as text in WebSocket frames:
+// channel uses (docs/camfi.md 3.2), as text in WebSocket frames:
 //   0{"sid":..,"pingInterval":..,"pingTimeout":..}   open (server)
 //   2 / 3                                            ping (client) / pong (server);
 //                                                    the reverse in Engine.IO v4

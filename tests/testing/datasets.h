@@ -1,7 +1,7 @@
 #pragma once
 
-// Readers for the ground truth of the shared real data sets (see
-// ../shared/data/README.md) that io does not read itself: TUM sequences and
+// Readers for the ground truth of the real data sets (their layout:
+// docs/testing.md, "Real data") that io does not read itself: TUM sequences and
 // trajectories are io's (ListTumSequence, ReadTumTrajectory). A missing or
 // malformed file throws std::runtime_error naming it.
 
