@@ -7,19 +7,20 @@
 //   engine NAME       the engine is about to take NAME
 //   done NAME         NAME is through, whatever its result (or never started)
 //   crashed NAME      a fatal signal (SIGSEGV, SIGBUS, SIGILL, SIGFPE,
-//                     SIGABRT) hit the thread working on NAME
+//                     SIGABRT) of the process's own making (a fault,
+//                     abort()) hit the thread working on NAME
 //   failed NAME WHY   the engine threw an exception on NAME
-//   killed NAME       the process died without a signal report during NAME
-//                     (SIGKILL, the OOM killer, a power cut)
-//   poison NAME WHY   NAME was open at kDeathsToQuarantine deaths in a row
+//   killed NAME       the process died without a crash report during NAME
+//                     (SIGKILL, the OOM killer, a power cut, a fatal signal
+//                     sent by another process)
+//   poison NAME WHY   written by earlier versions only: read as quarantined
 //   retry NAME        NAME gets another try (--retry-quarantined)
-// A crash quarantines its image at once: the fatal-signal handler knows
-// which image its thread was on. A death without a report does not tell a
-// hostile photo from a user's `kill -9` or the OOM killer, so its open image
-// (the one in the engine; the one being decoded if none was) is retried
-// once and quarantined only when the next run dies on it too: a kill never
-// loses a photo, and a photo that hangs or exhausts memory costs one restart
-// more.
+// Only evidence that the engine failed on an image quarantines it: `crashed`
+// or `failed` (and an old `poison`). A death without a report cannot tell a
+// hostile photo from a user's `kill -9`, the OOM killer or a power cut, and a
+// good photo set aside is lost for good, so `killed` never quarantines: the
+// image is processed again at every start. docs/live.md says what bounds a
+// photo that hangs the engine or exhausts memory instead.
 
 #include <atomic>
 #include <filesystem>
@@ -38,13 +39,10 @@ namespace flysfm {
 
 class Quarantine {
  public:
-  // Unreported deaths during an image before it is quarantined.
-  static constexpr int kDeathsToQuarantine = 2;
-
-  // Reads `file` (none: nothing quarantined), records what the previous run
-  // died on, reports each newly quarantined image on stderr, and installs
-  // the fatal-signal handler that records `crashed` (one Quarantine per
-  // process at a time). With `retry`, every quarantined image gets another
+  // Reads `file` (none: nothing quarantined), records `killed` for the
+  // images the previous run died on without a report (on stderr too), and
+  // installs the fatal-signal handler that records `crashed` (one Quarantine
+  // per process at a time). With `retry`, every quarantined image gets another
   // try. Throws std::runtime_error when the file cannot be written.
   Quarantine(const std::filesystem::path& file, bool retry);
   // Restores the previous signal handlers and records `done` for the images
@@ -55,7 +53,9 @@ class Quarantine {
 
   // Why `name` is quarantined; nullopt when it is not. Thread-safe, as are
   // the records below. BeginDecode and BeginEngine also make `name` the
-  // calling thread's image for the signal handler.
+  // calling thread's image for the signal handler, and give that thread an
+  // alternate signal stack if it has none (a stack overflow is a crash to
+  // report too); Done and Fail make it no image's.
   std::optional<std::string> Reason(const std::string& name) const;
   void BeginDecode(const std::string& name);
   void BeginEngine(const std::string& name);

@@ -8,16 +8,19 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <fstream>
 #include <map>
 #include <set>
 #include <stdexcept>
+#include <thread>
 
 #include <catch2/catch.hpp>
 #include <nlohmann/json.hpp>
 
 #include "io/run/run_loop.h"
+#include "io/sources/journal_file.h"
 #include "io/synthetic/synthetic_source.h"
 #include "tests/io/sources/source_fixture.h"
 #include "tests/testing/frame_files.h"
@@ -34,7 +37,8 @@ namespace fs = std::filesystem;
 constexpr int kImages = 4;
 // The image the injected faults hit.
 const char* const kPoison = "shot01.jpg";
-// Where the child process of the crash test runs (set for it only).
+// Where the child process of the crash and kill tests runs (set for it
+// only).
 const char* const kChildOutVariable = "FLYSFM_TEST_CRASH_OUT";
 
 // The engine's part replaced by a quick stand-in that records what it saw
@@ -130,15 +134,32 @@ TEST_CASE("A failed output write is counted and the run goes on") {
   CHECK(LoggedNames(out).size() == std::size_t(kImages));
 }
 
+// This test program again, running only the hidden test case `test_name`
+// with `out` as its output folder.
+pid_t SpawnChild(std::string test_name, const fs::path& out) {
+  const std::string variable = std::string(kChildOutVariable) + "=" + out.string();
+  std::vector<char*> environment = {const_cast<char*>(variable.c_str())};
+  for (char** entry = environ; *entry != nullptr; ++entry) environment.push_back(*entry);
+  environment.push_back(nullptr);
+  std::string self = fs::read_symlink("/proc/self/exe").string();
+  char* argv[] = {self.data(), test_name.data(), nullptr};
+  pid_t child = 0;
+  REQUIRE(::posix_spawn(&child, self.c_str(), nullptr, nullptr, argv, environment.data()) == 0);
+  return child;
+}
+
 // Run only as the child of the next test (hidden: "[.]"): the engine dies
 // (abort) in the middle of kPoison, as a crash inside it would.
 TEST_CASE("crash child", "[.]") {
   const char* out = std::getenv(kChildOutVariable);
   REQUIRE(out != nullptr);
   RunLoop::Hooks options;
-  // No core file for an abort on purpose.
+  // No core file for an abort on purpose, and the default actions under the
+  // quarantine's handler, as in the program: Catch2's handler would take
+  // over after it, and report (allocating) inside the signal.
   const rlimit no_core = {0, 0};
   ::setrlimit(RLIMIT_CORE, &no_core);
+  for (const int signal : {SIGSEGV, SIGBUS, SIGILL, SIGFPE, SIGABRT}) ::signal(signal, SIG_DFL);
   options.add_image = [](Engine*, PreparedFrame frame) {
     if (frame.frame.name == kPoison) std::abort();
     std::vector<std::string> seen;
@@ -151,16 +172,7 @@ TEST_CASE("After a process crashed on one image, the restart skips that image") 
   const fs::path dir = testing::MakeTempDir("run_engine_crash");
   testing::WriteTestJpegs(dir / "images", kImages);
   const fs::path out = dir / "out";
-  const std::string variable = std::string(kChildOutVariable) + "=" + out.string();
-  std::vector<char*> environment = {const_cast<char*>(variable.c_str())};
-  for (char** entry = environ; *entry != nullptr; ++entry) environment.push_back(*entry);
-  environment.push_back(nullptr);
-  std::string self = fs::read_symlink("/proc/self/exe").string();
-  std::string test_name = "crash child";
-  char* argv[] = {self.data(), test_name.data(), nullptr};
-  pid_t child = 0;
-  REQUIRE(::posix_spawn(&child, self.c_str(), nullptr, nullptr, argv, environment.data()) == 0);
-  REQUIRE(testing::WaitForExit(child, 30) == 128 + SIGABRT);
+  REQUIRE(testing::WaitForExit(SpawnChild("crash child", out), 30) == 128 + SIGABRT);
 
   std::vector<std::string> seen;
   RunLoop::Hooks options;
@@ -180,6 +192,64 @@ TEST_CASE("After a process crashed on one image, the restart skips that image") 
   retry.retry_quarantined = true;
   CHECK(Run(dir / "images", out, options, retry) == 0);
   CHECK(seen.size() == std::size_t(kImages));
+}
+
+// Run only as the child of the next test: the engine stays on kPoison (a
+// bounded sleep: an orphan ends by itself) until it is killed from outside.
+TEST_CASE("kill child", "[.]") {
+  const char* out = std::getenv(kChildOutVariable);
+  REQUIRE(out != nullptr);
+  RunLoop::Hooks options;
+  options.add_image = [](Engine*, PreparedFrame frame) {
+    if (frame.frame.name == kPoison) std::this_thread::sleep_for(std::chrono::seconds(30));
+    std::vector<std::string> seen;
+    return FakeAddImage(&seen, std::move(frame));
+  };
+  Run(fs::path(out).parent_path() / "images", out, options);
+}
+
+TEST_CASE("Killed from outside on the same image again and again, the restart processes it") {
+  const fs::path dir = testing::MakeTempDir("run_engine_kill");
+  testing::WriteTestJpegs(dir / "images", kImages);
+  const fs::path out = dir / "out";
+  const fs::path journal = out / "quarantine.tsv";
+  const std::string in_engine = std::string("engine\t") + kPoison;
+  constexpr int kKills = 3;
+  for (int death = 0; death < kKills; ++death) {
+    const pid_t child = SpawnChild("kill child", out);
+    // Each run gets to kPoison again (a quarantined image would never reach
+    // the engine), and is SIGKILLed there, as a user, the OOM killer or a
+    // power cut would end it.
+    const bool in_it = testing::WaitUntil(
+        [&] { return testing::LinesStartingWith(journal, in_engine).size() > std::size_t(death); },
+        10);
+    ::kill(child, SIGKILL);
+    const int exit_code = testing::WaitForExit(child, 5);
+    REQUIRE(in_it);
+    REQUIRE(exit_code == 128 + SIGKILL);
+  }
+  CHECK(testing::LinesStartingWith(journal, in_engine).size() == std::size_t(kKills));
+
+  std::vector<std::string> seen;
+  RunLoop::Hooks options;
+  options.add_image = [&](Engine*, PreparedFrame frame) {
+    return FakeAddImage(&seen, std::move(frame));
+  };
+  CHECK(Run(dir / "images", out, options) == 0);
+  CHECK(seen == std::vector<std::string>{"shot00.jpg", "shot01.jpg", "shot02.jpg", "shot03.jpg"});
+  CHECK(Summary(out)["quarantined"] == 0);
+  const std::vector<std::string> logged = LoggedNames(out);
+  CHECK(std::count(logged.begin(), logged.end(), kPoison) == 1);
+  // Every death is on record, none as a quarantine.
+  std::map<std::string, int> kinds;
+  for (const std::vector<std::string>& record : JournalFile::Read(journal)) {
+    if (record.size() >= 2 && record[1] == kPoison) ++kinds[record[0]];
+  }
+  CHECK(kinds["killed"] == kKills);
+  CHECK(kinds["done"] == 1);
+  CHECK(kinds.count("crashed") == 0);
+  CHECK(kinds.count("failed") == 0);
+  CHECK(kinds.count("poison") == 0);
 }
 
 // A rendered walk as image files, in capture order.
