@@ -206,15 +206,18 @@ Matrix6d PriorSqrtInformation(const Matrix6d& information, double weight) {
   return root.asDiagonal() * eigen.eigenvectors().transpose();
 }
 
-class StopCallback : public ceres::IterationCallback {
+// Options::on_iteration and Options::should_stop, after each iteration.
+class IterationCallback : public ceres::IterationCallback {
  public:
-  explicit StopCallback(const std::function<bool()>& should_stop) : should_stop_(should_stop) {}
-  ceres::CallbackReturnType operator()(const ceres::IterationSummary&) override {
-    return should_stop_() ? ceres::SOLVER_TERMINATE_SUCCESSFULLY : ceres::SOLVER_CONTINUE;
+  explicit IterationCallback(const BundleAdjuster::Options& options) : options_(options) {}
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary& summary) override {
+    if (options_.on_iteration) options_.on_iteration(summary.iteration);
+    return options_.should_stop && options_.should_stop() ? ceres::SOLVER_TERMINATE_SUCCESSFULLY
+                                                          : ceres::SOLVER_CONTINUE;
   }
 
  private:
-  const std::function<bool()>& should_stop_;
+  const BundleAdjuster::Options& options_;
 };
 
 BundleAdjuster::Termination ToTermination(const ceres::Solver::Summary& summary) {
@@ -691,8 +694,10 @@ BundleAdjuster::Summary BundleAdjuster::Solve(BundleProblem* problem) const {
   ceres::Solver::Options solver_options =
       MakeSolverOptions(options_, summary.num_free_images, summary.num_free_points,
                         *problem, added.residuals, ceres_problem.ordering);
-  StopCallback stop_callback(options_.should_stop);
-  if (options_.should_stop) solver_options.callbacks.push_back(&stop_callback);
+  IterationCallback iteration_callback(options_);
+  if (options_.should_stop || options_.on_iteration) {
+    solver_options.callbacks.push_back(&iteration_callback);
+  }
   ceres::Solver::Summary ceres_summary;
   ceres::Solve(solver_options, &ceres_problem.problem, &ceres_summary);
 

@@ -79,6 +79,9 @@ class BundleAdjuster {
     // its result usable (kNoConvergence). The engine's refinement between
     // shots gives way to a new image this way. Empty: never.
     std::function<bool()> should_stop;
+    // Called after each iteration with its number (0: the start, before the
+    // first step), for a progress line; it cannot stop the solve.
+    std::function<void(int iteration)> on_iteration;
 
     bool Check() const;
   };

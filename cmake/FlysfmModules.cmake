@@ -18,6 +18,14 @@ endfunction()
 # FLYSFM_THREADS_TESTS (tests/CMakeLists.txt) also gets the label `threads`.
 # Each executable joins the build target of each of its labels
 # (<label>_tests), so that a run of one label builds only what it runs.
+#
+# Every case has a TIMEOUT, so that a hang fails in minutes instead of
+# CTest's default 25: FLYSFM_UNIT_TIMEOUT or FLYSFM_REGRESSION_TIMEOUT
+# seconds, times FLYSFM_TEST_TIMEOUT_SCALE (tests/CMakeLists.txt: a sanitizer
+# build runs several times slower). COST orders a clean run's first `ctest
+# -j` (later runs use the times measured): the long regression runs first,
+# then the end-to-end ones of FLYSFM_LONG_TESTS, so that the many short
+# tests fill the gaps instead of a long one ending the run alone.
 function(flysfm_add_module_tests module)
   cmake_parse_arguments(ARG "" "" "DEPS" ${ARGN})
   file(GLOB test_sources CONFIGURE_DEPENDS
@@ -31,21 +39,28 @@ function(flysfm_add_module_tests module)
       target_link_libraries(${target} PRIVATE flysfm_test_regression_main
                             ${ARG_DEPS})
       set(label regression)
-      # The long runs on real data start first, so that `ctest -j` overlaps
-      # them with the many short unit tests instead of ending on them.
       set(cost 1000)
+      set(timeout ${FLYSFM_REGRESSION_TIMEOUT})
     else()
       target_link_libraries(${target} PRIVATE flysfm_test_main ${ARG_DEPS})
       set(label unit)
       set(cost 1)
+      if(stem IN_LIST FLYSFM_LONG_TESTS)
+        set(cost 100)
+      endif()
+      set(timeout ${FLYSFM_UNIT_TIMEOUT})
     endif()
+    math(EXPR timeout "${timeout} * ${FLYSFM_TEST_TIMEOUT_SCALE}")
     set(labels ${label})
     if(stem IN_LIST FLYSFM_THREADS_TESTS)
       list(APPEND labels threads)
     endif()
+    # --warn NoTests: a case whose name CTest got wrong (a ';' in it splits
+    # it) fails instead of passing with nothing run.
     catch_discover_tests(${target}
       TEST_PREFIX "${module}/${stem}: "
-      PROPERTIES SKIP_RETURN_CODE 77 COST ${cost}
+      EXTRA_ARGS --warn NoTests
+      PROPERTIES SKIP_RETURN_CODE 77 COST ${cost} TIMEOUT ${timeout}
       DISCOVERY_TIMEOUT 30)
     # The labels are set by a CTest include file of our own, read after
     # discovery's (which defines ${target}_TESTS): the PROPERTIES above would

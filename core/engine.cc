@@ -24,6 +24,11 @@ void AddTimes(const StageTimes& from, StageTimes* to) {
 
 }  // namespace
 
+bool Engine::Options::Finishing::Check() const {
+  return num_threads >= 1 && function_tolerance >= 0 && max_share_of_run >= 0 &&
+         min_seconds >= 0;
+}
+
 bool Engine::Options::Check(std::string* problem) const {
   const std::pair<bool, const char*> checks[] = {
       {decode.Check(), "decode"},
@@ -60,6 +65,7 @@ bool Engine::Options::Check(std::string* problem) const {
       {self_calibration_max_observations >= 1, "self_calibration_max_observations (>= 1)"},
       {self_calibration_min_iterations >= 1, "self_calibration_min_iterations (>= 1)"},
       {refinement.Check(), "refinement"},
+      {finishing.Check(), "finishing"},
   };
   for (const auto& [ok, name] : checks) {
     if (!ok) {
@@ -151,6 +157,14 @@ std::vector<ImageResult> Engine::AddImage(const Frame& frame) {
 }
 
 std::vector<ImageResult> Engine::AddImage(PreparedFrame prepared) {
+  const auto call_start = std::chrono::steady_clock::now();
+  std::vector<ImageResult> results = AddPreparedImage(std::move(prepared));
+  work_seconds_ +=
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - call_start).count();
+  return results;
+}
+
+std::vector<ImageResult> Engine::AddPreparedImage(PreparedFrame prepared) {
   std::vector<ImageResult> results(1);
   results[0].name = prepared.frame.name;
   results[0].times.decode = prepared.decode_ms;
@@ -228,6 +242,7 @@ std::vector<ImageResult> Engine::AddImage(PreparedFrame prepared) {
         return reconstruction_.image(result.image_id).IsRegistered();
       })) {
     refinement_.adjust = true;
+    refinement_.snooped_everything = false;
     refinement_.num_adjustments = 0;
   }
   if (results[0].status != ImageStatus::kRegistered && results[0].reason.empty()) {
@@ -505,21 +520,71 @@ ImageResult Engine::ResultFor(image_t image_id) const {
   return result;
 }
 
-std::vector<ImageResult> Engine::Finish() {
+const char* Engine::FinishStepName(FinishProgress::Step step) {
+  switch (step) {
+    case FinishProgress::Step::kRetry: return "waiting images tried again";
+    case FinishProgress::Step::kAdjust: return "global adjustment";
+    case FinishProgress::Step::kSnoop: return "data snooping";
+  }
+  return "";
+}
+
+std::vector<ImageResult> Engine::Finish(
+    const std::function<void(const FinishProgress&)>& progress) {
+  const auto start = std::chrono::steady_clock::now();
+  FinishProgress state;
+  const auto tell = [&] {
+    if (!progress) return;
+    state.elapsed_s =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    progress(state);
+  };
+  tell();
   pending_.ForgetTries();
   std::vector<ImageResult> results = RetryWaiting();
   for (ImageResult& result : results) Finalize(&result);
-  if (options_.final_global_ba && reconstruction_.NumRegisteredImages() >= 2) {
-    AdjustGlobalBundle(options_.global_ba, &reconstruction_);
+  if (options_.final_global_ba && reconstruction_.NumRegisteredImages() >= 2 &&
+      !RefinedToTheEnd()) {
+    BundleAdjuster::Options options = options_.global_ba;
+    options.num_threads = options_.finishing.num_threads;
+    options.function_tolerance =
+        std::max(options.function_tolerance, options_.finishing.function_tolerance);
+    // One budget of time for the global BA and the snooping's.
+    const double budget_s = std::max(options_.finishing.min_seconds,
+                                     options_.finishing.max_share_of_run * work_seconds_);
+    const auto adjust_start = std::chrono::steady_clock::now();
+    const auto spent_s = [&] {
+      return std::chrono::duration<double>(std::chrono::steady_clock::now() - adjust_start)
+          .count();
+    };
+    options.on_iteration = [&](int iteration) {
+      if (iteration == 0 && state.step == FinishProgress::Step::kSnoop) ++state.round;
+      state.iteration = iteration;
+      state.max_iterations = options.max_num_iterations;
+      state.remaining_s = std::max(0.0, budget_s - spent_s());
+      tell();
+    };
+    options.should_stop = [&] { return spent_s() >= budget_s; };
+    state.step = FinishProgress::Step::kAdjust;
+    AdjustGlobalBundle(options, &reconstruction_);
     reconstruction_.FilterAllPoints3D(options_.filter_max_error_px,
                                       options_.filter_min_tri_angle_deg);
-    if (options_.outlier_quantile > 0) {
-      SnoopOutliers(options_.outlier_quantile, options_.outlier_max_rounds,
-                    options_.global_ba, options_.filter_min_tri_angle_deg, &reconstruction_);
+    if (options_.outlier_quantile > 0 && spent_s() < budget_s) {
+      state.step = FinishProgress::Step::kSnoop;
+      state.max_rounds = options_.outlier_max_rounds;
+      SnoopOutliers(options_.outlier_quantile, options_.outlier_max_rounds, options,
+                    options_.filter_min_tri_angle_deg, &reconstruction_);
     }
   }
   reconstruction_.UpdatePointErrors();
   return results;
+}
+
+bool Engine::RefinedToTheEnd() const {
+  const RefinementState& state = refinement_;
+  return options_.refinement.enabled && state.snooped_everything && !state.adjust &&
+         state.to_match.empty() && state.to_triangulate.empty() &&
+         state.to_retriangulate.empty() && !state.snoop;
 }
 
 std::vector<std::string> Engine::PendingImageNames() const {

@@ -18,6 +18,18 @@ bool Engine::Options::Refinement::Check() const {
          min_changed_observations >= 0 && max_adjustments >= 0 && max_adjusted_observations >= 1;
 }
 
+const char* Engine::RefinementStepName(RefinementSlice::Step step) {
+  switch (step) {
+    case RefinementSlice::Step::kNone: return "nothing left";
+    case RefinementSlice::Step::kMatch: return "matching more pairs";
+    case RefinementSlice::Step::kTriangulate: return "triangulating new matches";
+    case RefinementSlice::Step::kAdjust: return "adjusting";
+    case RefinementSlice::Step::kRetriangulate: return "triangulating again";
+    case RefinementSlice::Step::kSnoop: return "data snooping";
+  }
+  return "";
+}
+
 Engine::RefinementSlice Engine::Refine(const std::function<bool()>& should_yield) {
   RefinementSlice slice;
   if (!options_.refinement.enabled || !initialized_) return slice;
@@ -36,6 +48,7 @@ Engine::RefinementSlice Engine::Refine(const std::function<bool()>& should_yield
         !slice.registered.empty()) {
       state.adjust = true;
       state.num_adjustments = 0;
+      state.snooped_everything = false;
     }
   } else if (state.adjust) {
     slice.step = RefinementSlice::Step::kAdjust;
@@ -73,12 +86,16 @@ Engine::RefinementSlice Engine::Refine(const std::function<bool()>& should_yield
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
             .count();
   }
+  work_seconds_ +=
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return slice;
 }
 
-std::vector<ImageResult> Engine::RefineToEnd() {
+std::vector<ImageResult> Engine::RefineToEnd(
+    const std::function<void(const RefinementSlice&)>& on_slice) {
   std::vector<ImageResult> registered;
   for (RefinementSlice slice; (slice = Refine()).step != RefinementSlice::Step::kNone;) {
+    if (on_slice) on_slice(slice);
     for (ImageResult& result : slice.registered) registered.push_back(std::move(result));
   }
   return registered;
@@ -186,6 +203,9 @@ void Engine::AdjustEverything(const std::function<bool()>& should_yield,
   // Guessed intrinsics that still move would follow the errors the
   // snooping leaves (SnoopOutliers).
   state.snoop = options_.outlier_quantile > 0 && self_calibrating_.empty();
+  // Without a snooping to follow, this BA is the end of refinement's work.
+  state.snooped_everything =
+      !state.snoop && self_calibrating_.empty() && weights.size() == registered.size();
   // A retriangulation that new images interrupted goes on where it stopped,
   // round the model: in a long session every image gets its turn.
   auto first = registered.begin();
@@ -210,6 +230,9 @@ void Engine::SnoopEverything(const std::function<bool()>& should_yield,
   // One that gave way to a new image runs again once that image is in.
   if (should_yield && should_yield()) return;
   refinement_.snoop = false;
+  refinement_.snooped_everything =
+      self_calibrating_.empty() &&
+      RefinementWindow().size() == reconstruction_.RegisteredImageIds().size();
 }
 
 std::vector<ImageResult> Engine::RetryWaiting() {

@@ -376,7 +376,7 @@ void List(const std::string& prefix, const BundleAdjuster::Options& o, Out* out)
                                 dense_schur_max_images, sparse_schur_max_images,
                                 max_num_iterations, max_solver_time_seconds, function_tolerance,
                                 gradient_tolerance, parameter_tolerance, num_threads,
-                                should_stop] = o;
+                                should_stop, on_iteration] = o;
   OPTION(loss, "Robust loss: trivial, huber or cauchy");
   OPTION(loss_scale_px, "Scale of the robust loss (px)");
   OPTION(refine_focal_length, "Refine every camera's focal length");
@@ -399,6 +399,7 @@ void List(const std::string& prefix, const BundleAdjuster::Options& o, Out* out)
   OPTION(parameter_tolerance, "Ceres parameter tolerance");
   OPTION(num_threads, "Ceres threads");
   OPTION(should_stop, "Polled after each iteration to end the solve early (refinement sets it)");
+  OPTION(on_iteration, "Told each iteration, for a progress line (the end of a run sets it)");
 }
 
 void List(const std::string& prefix, const Engine::Options::Refinement& o, Out* out) {
@@ -416,6 +417,15 @@ void List(const std::string& prefix, const Engine::Options::Refinement& o, Out* 
   OPTION(max_adjusted_observations, "Past this many observations BA refines only the latest images");
 }
 
+void List(const std::string& prefix, const Engine::Options::Finishing& o, Out* out) {
+  [[maybe_unused]] const auto& [num_threads, function_tolerance, max_share_of_run,
+                                min_seconds] = o;
+  OPTION(num_threads, "Threads of the end's adjustments");
+  OPTION(function_tolerance, "An adjustment of the end stops below this relative cost decrease");
+  OPTION(max_share_of_run, "The end's adjustments stop past this share of the engine's time");
+  OPTION(min_seconds, "... or past this many seconds when that is more (s)");
+}
+
 void List(const std::string& prefix, const Engine::Options& o, Out* out) {
   [[maybe_unused]] const auto& [decode, sift, retrieval, verification, max_verified_pairs,
                                 lsm_images, initialization, registration, triangulation, ba_tree,
@@ -425,7 +435,7 @@ void List(const std::string& prefix, const Engine::Options& o, Out* out) {
                                 unknown_focal_factor, self_calibration_growth,
                                 self_calibration_converged_change,
                                 self_calibration_max_observations,
-                                self_calibration_min_iterations, refinement] = o;
+                                self_calibration_min_iterations, refinement, finishing] = o;
   NESTED(decode);
   NESTED(sift);
   NESTED(retrieval);
@@ -456,6 +466,7 @@ void List(const std::string& prefix, const Engine::Options& o, Out* out) {
          "Past this many observations a scheduled BA gets proportionally fewer iterations");
   OPTION(self_calibration_min_iterations, "... but at least this many");
   NESTED(refinement);
+  NESTED(finishing);
 }
 
 void List(const std::string& prefix, const Checkpointer::Options& o, Out* out) {

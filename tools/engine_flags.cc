@@ -40,8 +40,8 @@ void AddEngineFlags(CLI::App* command, EngineFlags* flags) {
       ->check(CLI::Range(0.01, 1.0))
       ->capture_default_str();
   command->add_flag("--retry-quarantined", flags->retry_quarantined,
-                    "Give the images in OUT/quarantine.tsv (a previous run died or the "
-                    "engine failed on them) another try");
+                    "Give the images in OUT/quarantine.tsv (the engine crashed or threw "
+                    "on them) another try");
   command->add_option("--max-megapixels", flags->max_megapixels,
                       "Reject an image whose header claims more pixels, before decoding it "
                       "(a corrupt or hostile file may claim 60000 x 60000)")

@@ -7,6 +7,7 @@
 #include <unordered_set>
 
 #include "geometry/statistics.h"
+#include "io/run/progress_line.h"
 #include "io/sources/quarantine.h"
 #include "io/view/view_server.h"
 
@@ -19,15 +20,16 @@ double SecondsSince(Clock::time_point t) {
   return std::chrono::duration<double>(Clock::now() - t).count();
 }
 
-void PrintLine(int index, const ImageResult& result, std::optional<double> delay_ms) {
+void PrintLine(std::FILE* out, int index, const ImageResult& result,
+               std::optional<double> delay_ms) {
   char delay[48] = "";
   if (delay_ms) std::snprintf(delay, sizeof(delay), "  delay %6.0f ms", *delay_ms);
-  std::printf("[%4d] %-32s %-10s %6d pts %+5d new %7.0f ms  model %d img / %d pts%s%s%s\n",
-              index, result.name.c_str(), ImageStatusName(result.status),
-              result.num_observations, result.num_new_points, result.times.total,
-              result.model_images, result.model_points, delay,
-              result.reason.empty() ? "" : "  ", result.reason.c_str());
-  std::fflush(stdout);
+  std::fprintf(out, "[%4d] %-32s %-10s %6d pts %+5d new %7.0f ms  model %d img / %d pts%s%s%s\n",
+               index, result.name.c_str(), ImageStatusName(result.status),
+               result.num_observations, result.num_new_points, result.times.total,
+               result.model_images, result.model_points, delay,
+               result.reason.empty() ? "" : "  ", result.reason.c_str());
+  std::fflush(out);
 }
 
 // What `step` threw, whatever it was (a std::logic_error of a broken
@@ -70,6 +72,9 @@ class RunState {
   void ProcessImage(PreparedFrame frame);
   void RefineWhileIdle(const PreparedFrameSource& prepared);
   void End();
+  // Tells what the end is doing: a progress line on stdout, the view's status.
+  void ShowEnd(const std::string& step, const std::string& detail, double elapsed_s,
+               std::optional<double> remaining_s);
   void PrintClosingLines() const;
 
   const RunLoop::Options& options_;
@@ -82,6 +87,7 @@ class RunState {
   std::unique_ptr<Checkpointer> checkpointer_;
   std::unique_ptr<Quarantine> quarantine_;
   std::unique_ptr<QuarantineFilterSource> filtered_;
+  std::unique_ptr<ProgressLine> progress_;
   std::unordered_set<std::string> in_model_;
   RunLoop::Summary summary_;
   std::vector<ImageResult> logged_;  // what summary.json summarises
@@ -111,11 +117,11 @@ void RunState::Resume() {
   }
   summary_.counts.resumed_images = int(in_model_.size());
   if (options_.print) {
-    std::printf("resumed: %zu images (%zu registered, %zu points) from %s in %.1f s\n",
+    std::fprintf(options_.output, "resumed: %zu images (%zu registered, %zu points) from %s in %.1f s\n",
                 in_model_.size(), engine_->reconstruction().NumRegisteredImages(),
                 engine_->reconstruction().NumPoints3D(), checkpointer_->dir().c_str(),
                 SecondsSince(start_));
-    std::fflush(stdout);
+    std::fflush(options_.output);
   }
 }
 
@@ -133,7 +139,8 @@ void RunState::Report(const std::vector<ImageResult>& results, RunLoop::Origin o
     }
     const std::optional<double> shown_delay =
         options_.live ? reported.delay_ms : std::optional<double>();
-    if (options_.print) PrintLine(summary_.counts.images_in, result, shown_delay);
+    if (progress_) progress_->Done();
+    if (options_.print) PrintLine(options_.output, summary_.counts.images_in, result, shown_delay);
     if (view_) view_lines_.push_back(MakeViewLine(result, shown_delay));
     if (writer_) writer_->Log(result);
     logged_.push_back(result);
@@ -256,30 +263,67 @@ void RunState::RefineWhileIdle(const PreparedFrameSource& prepared) {
   }
 }
 
+void RunState::ShowEnd(const std::string& step, const std::string& detail, double elapsed_s,
+                       std::optional<double> remaining_s) {
+  if (progress_) progress_->Show(step, detail, elapsed_s, remaining_s);
+  if (view_) view_->SetStatus(ProgressLine::Format(step, detail, elapsed_s, remaining_s));
+}
+
+// "3 of at most 50"
+std::string OfAtMost(int value, int bound) {
+  return std::to_string(value) + " of at most " + std::to_string(bound);
+}
+
 // The source is done: what refinement has left, at once (a second Ctrl-C
-// in live quits; the checkpoint holds every image), then Finish.
+// in live quits; the checkpoint holds every image), then Finish. Each step
+// says what it does: the end may take minutes.
 void RunState::End() {
   const auto end_start = Clock::now();
+  if (options_.print) {
+    progress_ = std::make_unique<ProgressLine>(options_.output, options_.progress_interval_s);
+  }
   if (options_.between_images != RunLoop::Options::BetweenImages::kNothing &&
       !refinement_failed_) {
-    if (const std::optional<std::string> error =
-            ErrorOf([&] { Report(engine_->RefineToEnd(), RunLoop::Origin::kEnd); })) {
+    int slices = 0;
+    const auto on_slice = [&](const Engine::RefinementSlice& slice) {
+      ShowEnd("refinement", std::string(Engine::RefinementStepName(slice.step)) + ", slice " +
+                                std::to_string(++slices),
+              SecondsSince(end_start), std::nullopt);
+    };
+    if (const std::optional<std::string> error = ErrorOf(
+            [&] { Report(engine_->RefineToEnd(on_slice), RunLoop::Origin::kEnd); })) {
       ++summary_.counts.engine_errors;
       std::fprintf(stderr, "engine error while refining: %s\n", error->c_str());
     }
   }
   const auto finish_start = Clock::now();
-  if (const std::optional<std::string> error =
-          ErrorOf([&] { Report(engine_->Finish(), RunLoop::Origin::kEnd); })) {
+  const auto on_finish = [&](const Engine::FinishProgress& progress) {
+    std::string detail;
+    if (progress.step == Engine::FinishProgress::Step::kSnoop) {
+      detail = "adjustment " + OfAtMost(progress.round, progress.max_rounds) + ", ";
+    }
+    if (progress.step != Engine::FinishProgress::Step::kRetry) {
+      detail += "iteration " + OfAtMost(progress.iteration, progress.max_iterations);
+    }
+    ShowEnd(Engine::FinishStepName(progress.step), detail, SecondsSince(end_start),
+            progress.remaining_s);
+  };
+  if (const std::optional<std::string> error = ErrorOf([&] {
+        Report(hooks_.finish ? hooks_.finish(engine_, on_finish) : engine_->Finish(on_finish),
+               RunLoop::Origin::kEnd);
+      })) {
     ++summary_.counts.engine_errors;
     std::fprintf(stderr, "engine error while finishing: %s; the model is written as it is\n",
                  error->c_str());
   }
   summary_.finish_s = SecondsSince(finish_start);
+  ShowEnd("writing the final model and checkpoint", "", SecondsSince(end_start), std::nullopt);
   Checkpoint(1000 * SecondsSince(end_start), /*final=*/true);
   PublishView();
   if (!WriteOutputs(/*final=*/true)) summary_.exit_code = 1;
   if (source_failed_) summary_.exit_code = 1;
+  if (progress_) progress_->Done();
+  progress_.reset();
   summary_.end_s = SecondsSince(end_start);
   summary_.wall_s = SecondsSince(start_);
   if (checkpointer_) summary_.checkpoint = checkpointer_->summary();
@@ -288,7 +332,7 @@ void RunState::End() {
 void RunState::PrintClosingLines() const {
   const Reconstruction& model = engine_->reconstruction();
   const RunCounts& counts = summary_.counts;
-  std::printf("done: %d images in, %zu registered, %d rejected, %zu pending; %zu points, "
+  std::fprintf(options_.output, "done: %d images in, %zu registered, %d rejected, %zu pending; %zu points, "
               "mean reprojection error %.3f px; %.1f s (the end %.1f s)%s%s\n",
               counts.images_in, model.NumRegisteredImages(), engine_->num_rejected(),
               engine_->PendingImageNames().size(), model.NumPoints3D(),
@@ -296,14 +340,14 @@ void RunState::PrintClosingLines() const {
               options_.out.empty() ? "" : ". Output in ", options_.out.c_str());
   if (counts.quarantined + counts.engine_errors + counts.write_errors + counts.skipped_entries >
       0) {
-    std::printf("problems: %d quarantined images skipped, %d engine errors, %d failed writes, "
+    std::fprintf(options_.output, "problems: %d quarantined images skipped, %d engine errors, %d failed writes, "
                 "%d unreadable input entries\n",
                 counts.quarantined, counts.engine_errors, counts.write_errors,
                 counts.skipped_entries);
   }
   if (checkpointer_) {
     const Checkpointer::Summary& saved = summary_.checkpoint;
-    std::printf("checkpoint: %.1f ms per image (%.1f %% of the engine's time), %d snapshots "
+    std::fprintf(options_.output, "checkpoint: %.1f ms per image (%.1f %% of the engine's time), %d snapshots "
                 "(last %.0f ms, %.1f MB), %.1f MB written; %d images skipped as already in "
                 "the model\n",
                 counts.images_in > 0 ? counts.checkpoint_ms / counts.images_in : 0.0,
@@ -312,10 +356,10 @@ void RunState::PrintClosingLines() const {
                 saved.bytes / 1e6, counts.in_model);
   }
   if (options_.live && !registration_delays_ms_.empty()) {
-    std::printf("median delay from arrival to registration: %.0f ms over %zu images\n",
+    std::fprintf(options_.output, "median delay from arrival to registration: %.0f ms over %zu images\n",
                 Median(registration_delays_ms_), registration_delays_ms_.size());
   }
-  std::fflush(stdout);
+  std::fflush(options_.output);
 }
 
 RunLoop::Summary RunState::Go(ImageSource* source) {
@@ -361,6 +405,8 @@ void RunLoop::Options::Check() const {
   if (!(refresh_seconds >= 0)) throw std::invalid_argument("refresh_seconds must be >= 0");
   if (!checkpoint.Check()) throw std::invalid_argument("invalid checkpoint options");
   if (resume && out.empty()) throw std::invalid_argument("resume needs an output folder");
+  if (print && output == nullptr) throw std::invalid_argument("print needs an output");
+  if (!(progress_interval_s >= 0)) throw std::invalid_argument("progress_interval_s must be >= 0");
 }
 
 RunLoop::RunLoop(Options options, ViewServer* view) : options_(std::move(options)), view_(view) {

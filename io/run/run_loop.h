@@ -71,8 +71,13 @@ class RunLoop {
     bool retry_quarantined = false;
     Checkpointer::Options checkpoint;
 
-    // One line per image result on stdout, and the run's closing lines.
+    // One line per image result, the end's progress (a line updating in
+    // place on a terminal, plain lines elsewhere: io/run/progress_line.h)
+    // and the run's closing lines, on `output`.
     bool print = true;
+    std::FILE* output = stdout;
+    // Plain progress lines repeat a step at most this often.
+    double progress_interval_s = 5.0;
     // Each line also gives the delay from the image's arrival
     // (Frame::arrival) to its result, and the run ends with the median.
     bool live = false;
@@ -98,6 +103,11 @@ class RunLoop {
     // Once the image's results are reported and its checkpoint written: the
     // state a crash at this moment leaves behind.
     std::function<void(const Engine&)> after_image;
+    // In place of Engine::Finish (a test of the end's progress lines puts a
+    // slow one here).
+    std::function<std::vector<ImageResult>(
+        Engine*, const std::function<void(const Engine::FinishProgress&)>&)>
+        finish;
   };
 
   // Where a result came from.

@@ -351,4 +351,11 @@ std::string UpdateMessage(const ViewUpdate& update, const ViewSnapshot* lists) {
 
 std::string EndMessage() { return "{\"type\":\"end\"}"; }
 
+std::string StatusMessage(const std::string& text) {
+  std::string out = "{\"type\":\"status\",\"text\":";
+  AppendString(text, &out);
+  out += '}';
+  return out;
+}
+
 }  // namespace flysfm

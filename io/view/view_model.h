@@ -115,5 +115,8 @@ std::string ModelMessage(const ViewSnapshot& snapshot);
 // `lists`: the pending and rejected lists to send along (they changed).
 std::string UpdateMessage(const ViewUpdate& update, const ViewSnapshot* lists);
 std::string EndMessage();
+// What a long step of the run is doing (the end's adjustment, say), as the
+// terminal's progress line tells it; empty: nothing to tell.
+std::string StatusMessage(const std::string& text);
 
 }  // namespace flysfm

@@ -238,6 +238,21 @@ void ViewServer::SetLatestShot(const cv::Mat& image) {
   ++shot_sequence_;
 }
 
+void ViewServer::SetStatus(const std::string& text) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    status_ = text;
+    const auto message = std::make_shared<const std::string>(EventChunk(StatusMessage(text)));
+    for (const std::shared_ptr<Client>& client : clients_) {
+      if (client->needs_model || int(client->queue.size()) >= options_.max_queued_messages) {
+        continue;
+      }
+      client->queue.push_back(message);
+    }
+  }
+  wake_.notify_all();
+}
+
 void ViewServer::Finish(double drain_seconds) {
   std::unique_lock<std::mutex> lock(mutex_);
   model_.Finish();
@@ -269,8 +284,10 @@ std::string ViewServer::NextChunk(const std::shared_ptr<Client>& client, bool* e
     client->queue.clear();
     // Flat arrays copied under the lock, written out without it.
     const ViewSnapshot snapshot = model_.snapshot();
+    const std::string status = status_;
     lock.unlock();
     std::string chunk = "retry: 1000\n" + EventChunk(ModelMessage(snapshot));
+    if (!snapshot.finished && !status.empty()) chunk += EventChunk(StatusMessage(status));
     if (snapshot.finished) {
       chunk += EventChunk(EndMessage());
       *ends = true;

@@ -75,6 +75,10 @@ class ViewServer {
   // The latest shot (BGR); kept by reference, shrunk only when asked for.
   // An empty image (a shot that could not be decoded) is ignored.
   void SetLatestShot(const cv::Mat& image);
+  // What a long step of the run is doing (the terminal's progress line),
+  // shown on the page until the next status or the end; a page opened
+  // meanwhile gets it with the model.
+  void SetStatus(const std::string& text);
   // The run is over: every client gets `end` after what it has. Waits up to
   // `drain_seconds` for the open pages to receive it, so that a batch run
   // that exits right after does not cut them off.
@@ -107,6 +111,7 @@ class ViewServer {
   std::condition_variable wake_;
   bool stopping_ = false;
   ViewModel model_;
+  std::string status_;
   std::list<std::shared_ptr<Client>> clients_;
 
   std::mutex shot_mutex_;

@@ -278,7 +278,7 @@ TEST_CASE("A focal length 5% off is recovered when refined, and only it") {
   for (int i = 1; i < 4; ++i) CHECK(problem.cameras[0].params[i] == start[i]);
 }
 
-TEST_CASE("Refined intrinsics stay within their bounds; inside them they converge") {
+TEST_CASE("Refined intrinsics stay within their bounds, inside them they converge") {
   // The truth: focal 500, principal point 30 px right of the centre (4.7 %
   // of the width).
   Camera camera = Camera::FromFocal(CameraModelId::kSimpleRadial, 500, 640, 480);

@@ -11,6 +11,8 @@
 #include "io/synthetic/synthetic_source.h"
 #include "tests/testing/frame_files.h"
 #include "tests/testing/temp_dir.h"
+#include "tests/testing/rendered_capture.h"
+#include "tests/testing/sanitizer.h"
 
 namespace flysfm {
 namespace {
@@ -25,9 +27,11 @@ struct Files {
 const Files& Capture() {
   static const Files files = [] {
     SyntheticCaptureOptions options;
-    options.num_views = 10;
+    // Smaller under a sanitizer (tests/testing/sanitizer.h); the sections
+    // need more than 6.
+    options.num_views = testing::kSanitizerBuild ? 8 : 10;
     options.seed = 5;
-    Files files{MakeSyntheticCapture(options), {}};
+    Files files{testing::RenderedCapture(options), {}};
     files.frames = testing::WriteFrameFiles(files.capture.frames,
                                             testing::MakeTempDir("engine_checkpoint"));
     return files;

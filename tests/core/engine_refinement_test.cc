@@ -12,6 +12,7 @@
 #include "core/engine.h"
 #include "io/evaluation/evaluation.h"
 #include "io/synthetic/synthetic_source.h"
+#include "tests/testing/rendered_capture.h"
 
 namespace flysfm {
 namespace {
@@ -25,7 +26,7 @@ const SyntheticCapture& Capture() {
     SyntheticCaptureOptions options;
     options.num_views = 8;
     options.seed = 7;
-    return MakeSyntheticCapture(options);
+    return testing::RenderedCapture(options);
   }();
   return capture;
 }
@@ -296,6 +297,39 @@ TEST_CASE("Refinement is deterministic for the same images and slices") {
     CHECK(pose_a.rotation.coeffs() == pose_b.rotation.coeffs());
     CHECK(pose_a.translation == pose_b.translation);
   }
+}
+
+TEST_CASE("After refinement ran to its end Finish adjusts nothing more, and without it it does") {
+  for (const bool refined : {true, false}) {
+    INFO("refined to its end: " << refined);
+    Engine engine(Engine::Options(), Capture().camera);
+    AddAll(&engine);
+    if (refined) engine.RefineToEnd();
+    const Reconstruction before = engine.reconstruction();
+    bool adjusted = false;
+    engine.Finish([&](const Engine::FinishProgress& progress) {
+      adjusted |= progress.step != Engine::FinishProgress::Step::kRetry;
+    });
+    CHECK(adjusted == !refined);
+    if (refined) {
+      for (const image_t id : before.RegisteredImageIds()) {
+        CHECK(engine.reconstruction().image(id).cam_from_world->translation ==
+              before.image(id).cam_from_world->translation);
+      }
+    }
+    CHECK(CenterRmse(engine.reconstruction()) < kCenterTolerance);
+  }
+  // A new image after it makes the end adjust again.
+  Engine engine(Engine::Options(), Capture().camera);
+  const std::vector<Frame>& frames = Capture().frames;
+  for (std::size_t i = 0; i + 1 < frames.size(); ++i) engine.AddImage(frames[i]);
+  engine.RefineToEnd();
+  engine.AddImage(frames.back());
+  bool adjusted = false;
+  engine.Finish([&](const Engine::FinishProgress& progress) {
+    adjusted |= progress.step != Engine::FinishProgress::Step::kRetry;
+  });
+  CHECK(adjusted);
 }
 
 TEST_CASE("Refinement switched off does nothing") {

@@ -13,6 +13,8 @@
 #include "io/evaluation/evaluation.h"
 #include "io/synthetic/synthetic_source.h"
 #include "tests/testing/exif_jpeg.h"
+#include "tests/testing/rendered_capture.h"
+#include "tests/testing/sanitizer.h"
 
 namespace flysfm {
 namespace {
@@ -28,9 +30,10 @@ double CenterRmse(const Reconstruction& reconstruction, const SyntheticCapture& 
 const SyntheticCapture& Capture() {
   static const SyntheticCapture capture = [] {
     SyntheticCaptureOptions options;
-    options.num_views = 12;
+    // Smaller under a sanitizer (tests/testing/sanitizer.h).
+    options.num_views = testing::kSanitizerBuild ? 8 : 12;
     options.seed = 3;
-    return MakeSyntheticCapture(options);
+    return testing::RenderedCapture(options);
   }();
   return capture;
 }
@@ -140,13 +143,19 @@ TEST_CASE("A shuffled capture waits in the pending pool and registers in full, d
   std::vector<Frame> frames = Capture().frames;
   std::mt19937 rng(11);
   std::shuffle(frames.begin(), frames.end(), rng);
-  const auto run_once = [&](Run* run) {
+  // The model as the last image left it, before Finish: the per-image path
+  // is single-threaded and deterministic. Finish's adjustments run on two
+  // threads, whose sums differ in the last bits from run to run.
+  const auto run_once = [&](Run* run, Reconstruction* before_finish) {
     auto engine = std::make_unique<Engine>(Engine::Options(), Capture().camera);
-    *run = Feed(engine.get(), frames);
+    for (const Frame& frame : frames) run->calls.push_back(engine->AddImage(frame));
+    *before_finish = engine->reconstruction();
+    run->finish = engine->Finish();
     return engine;
   };
   Run run;
-  const std::unique_ptr<Engine> engine = run_once(&run);
+  Reconstruction model;
+  const std::unique_ptr<Engine> engine = run_once(&run, &model);
   CheckAllRegisteredOnce(*engine, run, frames.size());
   CHECK(CenterRmse(engine->reconstruction(), Capture()) < kCenterTolerance);
   // Some image waited: it registered in a later call than its own.
@@ -160,12 +169,18 @@ TEST_CASE("A shuffled capture waits in the pending pool and registers in full, d
   }));
 
   Run again;
-  const std::unique_ptr<Engine> twin = run_once(&again);
-  for (const image_t id : engine->reconstruction().RegisteredImageIds()) {
-    const Rigid3d& a = *engine->reconstruction().image(id).cam_from_world;
-    const Rigid3d& b = *twin->reconstruction().image(id).cam_from_world;
+  Reconstruction twin_model;
+  const std::unique_ptr<Engine> twin = run_once(&again, &twin_model);
+  for (const image_t id : model.RegisteredImageIds()) {
+    const Rigid3d& a = *model.image(id).cam_from_world;
+    const Rigid3d& b = *twin_model.image(id).cam_from_world;
     CHECK(a.rotation.coeffs() == b.rotation.coeffs());
     CHECK(a.translation == b.translation);
+    // After Finish: the same to far below the poses' precision.
+    const Rigid3d& c = *engine->reconstruction().image(id).cam_from_world;
+    const Rigid3d& d = *twin->reconstruction().image(id).cam_from_world;
+    CHECK((c.rotation.coeffs() - d.rotation.coeffs()).norm() < 1e-9);
+    CHECK((c.translation - d.translation).norm() < 1e-9 * kCenterTolerance / 0.005);
   }
 }
 
@@ -360,6 +375,34 @@ TEST_CASE("Unreadable images are counted rejections, and the run goes on") {
   engine.Finish();
   CHECK(engine.num_rejected() == 3);
   CHECK(engine.reconstruction().NumRegisteredImages() == Capture().frames.size());
+}
+
+TEST_CASE("Finish tells its steps and each iteration of its adjustments, within its budget") {
+  Engine engine(Engine::Options(), Capture().camera);
+  for (const Frame& frame : Capture().frames) engine.AddImage(frame);
+  std::vector<Engine::FinishProgress> told;
+  engine.Finish([&](const Engine::FinishProgress& progress) { told.push_back(progress); });
+  REQUIRE(!told.empty());
+  CHECK(told.front().step == Engine::FinishProgress::Step::kRetry);
+  int adjust = 0, snoop = 0;
+  for (std::size_t i = 0; i < told.size(); ++i) {
+    const Engine::FinishProgress& progress = told[i];
+    if (i > 0) CHECK(progress.elapsed_s >= told[i - 1].elapsed_s);
+    if (progress.step == Engine::FinishProgress::Step::kRetry) continue;
+    adjust += progress.step == Engine::FinishProgress::Step::kAdjust;
+    snoop += progress.step == Engine::FinishProgress::Step::kSnoop;
+    CHECK(progress.iteration <= progress.max_iterations);
+    REQUIRE(progress.remaining_s);
+    // Never beyond the budget: a model this small gets min_seconds.
+    CHECK(*progress.remaining_s <= Engine::Options().finishing.min_seconds);
+    if (progress.step == Engine::FinishProgress::Step::kSnoop) {
+      CHECK(progress.round >= 1);
+      CHECK(progress.round <= progress.max_rounds);
+    }
+  }
+  // The global BA's start and iterations, then the snooping's adjustments.
+  CHECK(adjust >= 2);
+  CHECK(snoop >= 1);
 }
 
 TEST_CASE("Invalid options are refused, naming the option") {

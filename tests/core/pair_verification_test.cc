@@ -7,6 +7,7 @@
 #include "core/engine.h"
 #include "io/synthetic/synthetic_source.h"
 #include "tests/testing/warped_pair.h"
+#include "tests/testing/rendered_capture.h"
 
 namespace flysfm {
 namespace {
@@ -22,7 +23,7 @@ void AddViews(RenderedPair* pair) {
   SyntheticCaptureOptions options;
   options.num_views = 2;
   options.path_length = 0.4;
-  const SyntheticCapture capture = MakeSyntheticCapture(options);
+  const SyntheticCapture capture = testing::RenderedCapture(options);
   const camera_t camera_id = pair->reconstruction.AddCamera(capture.camera);
   for (const Frame& frame : capture.frames) {
     PreparedFrame prepared = Engine::Prepare(frame, Engine::Options());

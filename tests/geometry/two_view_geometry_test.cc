@@ -4,6 +4,7 @@
 
 #include <catch2/catch.hpp>
 
+#include "tests/testing/sanitizer.h"
 #include "tests/testing/two_view_matches.h"
 
 namespace flysfm {
@@ -78,7 +79,10 @@ TEST_CASE("Calibrated: GRIC separates planar, panoramic and general scenes") {
   const Camera camera = Camera::FromString(
       "OPENCV 480,482,322,241,-0.2,0.05,0.001,-0.0005", 640, 480);
   int planar = 0, panoramic = 0, general = 0, pose_right = 0, h_selected = 0;
-  for (int seed = 0; seed < 200; ++seed) {
+  // 600 estimations take a minute under a sanitizer (tests/testing/sanitizer.h):
+  // there, a quarter of the instances, the same shares.
+  const int n = testing::kSanitizerBuild ? 50 : 200;
+  for (int seed = 0; seed < n; ++seed) {
     TwoViewGeometryOptions options;
     options.ransac.seed = seed;
     {
@@ -108,11 +112,11 @@ TEST_CASE("Calibrated: GRIC separates planar, panoramic and general scenes") {
       }
     }
   }
-  CHECK(h_selected >= 380);
-  CHECK(planar >= 190);
-  CHECK(panoramic >= 190);
-  CHECK(general >= 190);
-  CHECK(pose_right >= 190);
+  CHECK(h_selected >= 0.95 * 2 * n);
+  CHECK(planar >= 0.95 * n);
+  CHECK(panoramic >= 0.95 * n);
+  CHECK(general >= 0.95 * n);
+  CHECK(pose_right >= 0.95 * n);
 }
 
 // Without a calibration the engine normalises with a guessed focal length.

@@ -149,7 +149,7 @@ TEST_CASE("with the grey image given, extraction is the same, and a wrong grey i
                   std::invalid_argument);  // 320 / 107: no reduction of 2, 4 or 8
 }
 
-TEST_CASE("colours come from a reduced colour image; the features from the full grey") {
+TEST_CASE("colours come from a reduced colour image, the features from the full grey") {
   // Blue and green constant over 4 x 4 blocks, so a block's average is each
   // of its pixels' colour.
   const cv::Mat texture = MakeTexture(322, 242, 8);
@@ -179,7 +179,7 @@ TEST_CASE("colours come from a reduced colour image; the features from the full 
 
 namespace flysfm {
 
-TEST_CASE("a feature set written and read back is identical; a cut one is refused") {
+TEST_CASE("a feature set written and read back is identical, a cut one is refused") {
   const FeatureSet features = ExtractFeatures(MakeTexture(320, 240, 3), SiftOptions());
   REQUIRE(features.size() > 0);
   std::stringstream stream;

@@ -41,7 +41,7 @@ TEST_CASE("PNG and JPEG bytes decode to the encoded image") {
   CHECK(grey_png.image.channels() == 3);
 }
 
-TEST_CASE("the grey image is full size; a JPEG's colour is reduced as far as asked") {
+TEST_CASE("the grey image is full size, a JPEG's colour is reduced as far as asked") {
   // Odd sizes: libjpeg rounds each reduced side up.
   const cv::Mat image = MakeTexture(1001, 701, 4, true);
   const std::vector<std::uint8_t> jpeg = Encode(image, ".jpg");

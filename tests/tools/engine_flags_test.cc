@@ -55,7 +55,7 @@ TEST_CASE("Images over --max-megapixels are rejected before decoding, with the r
   CHECK_THROWS_AS(bad.parse("--out x --max-megapixels 0", false), CLI::ValidationError);
 }
 
-TEST_CASE("The flag --lsm-window-budget sets the engine's LSM memory; a negative one is refused") {
+TEST_CASE("The flag --lsm-window-budget sets the engine's LSM memory, a negative one is refused") {
   CLI::App app;
   EngineFlags flags;
   AddEngineFlags(&app, &flags);

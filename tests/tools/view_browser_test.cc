@@ -16,6 +16,7 @@
 #include "tests/testing/skip.h"
 #include "tests/testing/temp_dir.h"
 #include "tests/tools/live_process.h"
+#include "tests/testing/rendered_capture.h"
 
 namespace flysfm {
 namespace {
@@ -32,7 +33,7 @@ std::filesystem::path ArtifactDir() {
 std::string WriteCapture(const std::filesystem::path& dir) {
   SyntheticCaptureOptions options;
   options.num_views = kViews;
-  const SyntheticCapture capture = MakeSyntheticCapture(options);
+  const SyntheticCapture capture = testing::RenderedCapture(options);
   std::filesystem::create_directories(dir);
   for (const Frame& frame : capture.frames) {
     std::ofstream out(dir / frame.name, std::ios::binary);

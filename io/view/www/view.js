@@ -437,6 +437,12 @@
     }
   }
 
+  // What a long step of the run is doing (the end's adjustment, say).
+  function onStatus(m) {
+    state.status = m.text;
+    if (!state.finished) $('status').textContent = m.text || 'live';
+  }
+
   let source = null;
   function onEnd() {
     state.finished = true;
@@ -451,6 +457,7 @@
     if (m.type === 'model') onModel(m);
     else if (m.type === 'update') onUpdate(m);
     else if (m.type === 'end') onEnd();
+    else if (m.type === 'status') onStatus(m);
     uploadPoints();
     state.cameras = frustums.size;
     state.points = count;

@@ -290,7 +290,7 @@ TEST_CASE("TakeChanges reports what changed since the last take and only that") 
 
 namespace flysfm {
 
-TEST_CASE("A model written and read back is the same model; a cut or inconsistent one is refused") {
+TEST_CASE("A model written and read back is the same model, a cut or inconsistent one is refused") {
   Fixture f;
   Reconstruction& r = f.reconstruction;
   // An unregistered image and a densified keypoint, as the engine has them.

@@ -24,7 +24,7 @@ void WriteText(const std::filesystem::path& path, const std::string& text) {
   std::ofstream(path, std::ios::binary) << text;
 }
 
-TEST_CASE("Journal fields carry tabs, newlines, '%' and '\\' without splitting a record") {
+TEST_CASE("Journal fields carry tabs, newlines, '%' and backslashes without splitting a record") {
   const std::string hostile = "/store_00010001/DCIM/a\tb\nstored\tx\ty\t1\r%41\\.JPG";
   const std::string text =
       FormatJournalRecord(JournalRecord::Stored(hostile, "name.JPG", 7, kSha1)) +

@@ -8,6 +8,8 @@
 #include "io/synthetic/synthetic_source.h"
 #include "tests/testing/frame_files.h"
 #include "tests/testing/temp_dir.h"
+#include "tests/testing/rendered_capture.h"
+#include "tests/testing/sanitizer.h"
 
 namespace flysfm {
 namespace {
@@ -22,16 +24,16 @@ struct Walk {
 const Walk& RenderedWalk() {
   static const Walk walk = [] {
     SyntheticCaptureOptions options;
-    options.num_views = 10;
+    options.num_views = testing::kSanitizerBuild ? 8 : 10;  // tests/testing/sanitizer.h
     options.seed = 8;
-    const SyntheticCapture capture = MakeSyntheticCapture(options);
+    const SyntheticCapture capture = testing::RenderedCapture(options);
     return Walk{capture.camera,
                 testing::WriteFrameFiles(capture.frames, testing::MakeTempDir("checkpoint_frames"))};
   }();
   return walk;
 }
 
-TEST_CASE("Each image's record and windows are written once; the snapshot within its share") {
+TEST_CASE("Each image's record and windows are written once, the snapshot within its share") {
   const Walk& walk = RenderedWalk();
   const fs::path dir = testing::MakeTempDir("checkpoint") / "state";
   // A share so small that after the first snapshot only the final one is
@@ -109,7 +111,7 @@ TEST_CASE("A checkpoint that cannot be written is reported, and the next update 
   CHECK(resumed.reconstruction().images().size() == 2);
 }
 
-TEST_CASE("Clear starts a new checkpoint; a bad share is refused") {
+TEST_CASE("Clear starts a new checkpoint, a bad share is refused") {
   const fs::path dir = testing::MakeTempDir("checkpoint_clear") / "state";
   fs::create_directories(dir);
   std::ofstream(dir / "snapshot.bin") << "old";

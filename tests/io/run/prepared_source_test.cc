@@ -9,6 +9,7 @@
 #include <catch2/catch.hpp>
 
 #include "io/synthetic/synthetic_source.h"
+#include "tests/testing/rendered_capture.h"
 
 namespace flysfm {
 namespace {
@@ -16,7 +17,7 @@ namespace {
 TEST_CASE("Frames come prepared, in the source's order, as Engine::Prepare makes them") {
   SyntheticCaptureOptions capture_options;
   capture_options.num_views = 3;
-  std::vector<Frame> frames = MakeSyntheticCapture(capture_options).frames;
+  std::vector<Frame> frames = testing::RenderedCapture(capture_options).frames;
   Frame bad;
   bad.name = "truncated.png";
   bad.bytes = std::vector<std::uint8_t>(frames[0].bytes.begin(), frames[0].bytes.begin() + 100);
@@ -67,7 +68,7 @@ TEST_CASE("WaitReady tells whether the next frame is prepared, waiting at most a
   capture_options.num_views = 2;
   // The second frame is due 3 s after the first: well after the first is
   // prepared, even under a sanitizer.
-  FrameListSource source(MakeSyntheticCapture(capture_options).frames, 3.0);
+  FrameListSource source(testing::RenderedCapture(capture_options).frames, 3.0);
   PreparedFrameSource prepared(&source, Engine::Options());
   REQUIRE(prepared.WaitReady(std::chrono::seconds(5)));
   REQUIRE(prepared.Next());
@@ -100,7 +101,7 @@ class StampedSource : public ImageSource {
 TEST_CASE("The next frame is expected after the last one at the shots' cadence") {
   SyntheticCaptureOptions capture_options;
   capture_options.num_views = 5;
-  std::vector<Frame> frames = MakeSyntheticCapture(capture_options).frames;
+  std::vector<Frame> frames = testing::RenderedCapture(capture_options).frames;
   const auto t0 = std::chrono::steady_clock::now();
   const std::vector<double> arrivals_s = {0, 4, 7, 12, 15};  // intervals 4, 3, 5, 3
   for (std::size_t i = 0; i < frames.size(); ++i) {
@@ -157,7 +158,7 @@ class GatedSource : public ImageSource {
 TEST_CASE("A frame has arrived once the source gave it, before it is prepared") {
   SyntheticCaptureOptions capture_options;
   capture_options.num_views = 2;
-  GatedSource source(MakeSyntheticCapture(capture_options).frames.front());
+  GatedSource source(testing::RenderedCapture(capture_options).frames.front());
   PreparedFrameSource prepared(&source, Engine::Options());
   std::this_thread::sleep_for(std::chrono::milliseconds(50));
   CHECK_FALSE(prepared.Arrived());
@@ -192,7 +193,7 @@ TEST_CASE("Leaving the engine loop early does not wait for the next shot") {
 TEST_CASE("Stop ends a paced list without waiting for the next interval") {
   SyntheticCaptureOptions capture_options;
   capture_options.num_views = 2;
-  FrameListSource source(MakeSyntheticCapture(capture_options).frames, 30.0);
+  FrameListSource source(testing::RenderedCapture(capture_options).frames, 30.0);
   REQUIRE(source.Next());
   std::thread stopper([&] {
     std::this_thread::sleep_for(std::chrono::milliseconds(100));

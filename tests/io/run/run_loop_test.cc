@@ -12,6 +12,7 @@
 #include <cstdlib>
 #include <fstream>
 #include <map>
+#include <regex>
 #include <set>
 #include <stdexcept>
 #include <thread>
@@ -26,6 +27,8 @@
 #include "tests/testing/frame_files.h"
 #include "tests/testing/temp_dir.h"
 #include "tests/testing/process.h"
+#include "tests/testing/rendered_capture.h"
+#include "tests/testing/sanitizer.h"
 
 extern char** environ;
 
@@ -255,9 +258,9 @@ TEST_CASE("Killed from outside on the same image again and again, the restart pr
 // A rendered walk as image files, in capture order.
 std::vector<Frame> RenderedFolder(const fs::path& dir, Camera* camera) {
   SyntheticCaptureOptions options;
-  options.num_views = 10;
+  options.num_views = testing::kSanitizerBuild ? 8 : 10;  // tests/testing/sanitizer.h
   options.seed = 4;
-  const SyntheticCapture capture = MakeSyntheticCapture(options);
+  const SyntheticCapture capture = testing::RenderedCapture(options);
   *camera = capture.camera;
   testing::WriteFrameFiles(capture.frames, dir);
   return ListImageFolder(dir);
@@ -310,7 +313,7 @@ TEST_CASE("Resuming continues the checkpointed model and extends a finished one"
   CHECK(testing::ReadText(out / "state" / "snapshot.bin") == "junk");
 }
 
-TEST_CASE("Paced images are refined between them, and the summary counts it; "
+TEST_CASE("Paced images are refined between them, and the summary counts it, "
           "an engine without refinement refines nothing") {
   const fs::path dir = testing::MakeTempDir("run_engine_refine");
   Camera camera;
@@ -343,6 +346,77 @@ TEST_CASE("Paced images are refined between them, and the summary counts it; "
       CHECK(summary["refinement"]["slices"] == 0);
     }
   }
+}
+
+TEST_CASE("A long end says what it does, in lines a script can read") {
+  SyntheticCaptureOptions capture_options;
+  capture_options.num_views = 6;
+  capture_options.seed = 4;
+  const SyntheticCapture capture = testing::RenderedCapture(capture_options);
+  Engine engine(Engine::Options(), capture.camera);
+  // The engine's own end, then 1.5 s more of a global BA's iterations, told
+  // as Finish tells them: an end as long as a large model's.
+  RunLoop::Hooks hooks;
+  hooks.finish = [](Engine* engine,
+                    const std::function<void(const Engine::FinishProgress&)>& progress) {
+    std::vector<ImageResult> results = engine->Finish(progress);
+    Engine::FinishProgress state;
+    state.step = Engine::FinishProgress::Step::kAdjust;
+    state.max_iterations = 15;
+    for (; state.iteration < state.max_iterations; ++state.iteration) {
+      state.elapsed_s = 0.1 * state.iteration;
+      state.remaining_s = 0.1 * (state.max_iterations - state.iteration);
+      progress(state);
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    }
+    return results;
+  };
+  std::FILE* output = std::tmpfile();
+  REQUIRE(output != nullptr);
+  RunLoop::Options options;
+  options.between_images = RunLoop::Options::BetweenImages::kNothing;
+  options.output = output;
+  options.progress_interval_s = 0.2;
+  FrameListSource source(capture.frames);
+  const RunLoop::Summary summary = RunLoop(options).Run(&source, &engine, hooks);
+  CHECK(summary.end_s > 1.5);
+  std::rewind(output);
+  std::vector<std::string> lines;
+  std::string line;
+  for (int c; (c = std::fgetc(output)) != EOF;) {
+    if (c != '\n') {
+      line += char(c);
+      continue;
+    }
+    lines.push_back(line);
+    line.clear();
+  }
+  std::fclose(output);
+  CHECK(line.empty());  // every line ended
+  const std::regex image_line(R"(\[ *[0-9]+\] \S+ +(registered|pending|rejected) .*)");
+  const std::regex end_line(
+      R"(end: ([a-z ]+)(, [a-z0-9 ,]+)?; ([0-9]+\.[0-9]) s(, at most [0-9]+ s left)?)");
+  int images = 0, adjustment_lines = 0;
+  double last_elapsed = -1;
+  for (const std::string& text : lines) {
+    INFO(text);
+    std::smatch match;
+    if (std::regex_match(text, image_line)) {
+      ++images;
+    } else if (std::regex_match(text, match, end_line)) {
+      const double elapsed = std::stod(match[3]);
+      CHECK(elapsed >= last_elapsed);
+      last_elapsed = elapsed;
+      adjustment_lines += match[1] == "global adjustment";
+    } else {
+      CHECK((text.rfind("done: ", 0) == 0 || text.rfind("checkpoint: ", 0) == 0));
+    }
+  }
+  // A result per image at least (an image of the initial pair waits first).
+  CHECK(images >= int(capture.frames.size()));
+  // Once at its start, then again after each 0.2 s of its 1.5 s.
+  CHECK(adjustment_lines >= 5);
+  CHECK(last_elapsed >= 1.5);
 }
 
 }  // namespace

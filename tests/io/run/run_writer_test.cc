@@ -15,6 +15,7 @@
 #include "io/synthetic/synthetic_source.h"
 #include "tests/testing/skip.h"
 #include "tests/testing/temp_dir.h"
+#include "tests/testing/rendered_capture.h"
 
 namespace flysfm {
 namespace {
@@ -32,7 +33,7 @@ const WrittenRun& Written() {
     SyntheticCaptureOptions options;
     options.num_views = 8;
     options.path_length = 1.5;
-    const SyntheticCapture capture = MakeSyntheticCapture(options);
+    const SyntheticCapture capture = testing::RenderedCapture(options);
     Engine engine(Engine::Options(), capture.camera);
     std::vector<ImageResult> results;
     for (const Frame& frame : capture.frames) {
