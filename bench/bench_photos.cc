@@ -29,6 +29,7 @@
 
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <map>
 #include <optional>
@@ -45,6 +46,7 @@
 #include "core/malloc_policy.h"
 #include "geometry/statistics.h"
 #include "io/evaluation/evaluation.h"
+#include "io/formats/trajectory.h"
 #include "io/sources/image_source.h"
 #include "tests/testing/datasets.h"
 
@@ -65,6 +67,7 @@ struct Flags {
   std::string data;
   bool no_real = false;
   bool glibc_malloc_defaults = false;
+  bool render_only = false;
 };
 
 // ", the initial pairs' F gave N px" when they replaced the guess.
@@ -259,6 +262,27 @@ nlohmann::json AccuracyFigures(const Flags& flags, const RenderedSession& render
           {"focal_length_from_pairs_px", session.focal_length_from_pairs.value_or(0)}};
 }
 
+// --render-only: the photos stay in `dir` for `flysfm batch` (scripts/
+// bench_compare.sh runs two revisions on them), with their exact poses as a
+// TUM trajectory (groundtruth.txt, camera-to-world; the timestamp of photo i
+// is i, as a folder's images get theirs) and the camera (camera.txt, as
+// --camera takes it).
+int WriteGroundTruth(const RenderedSession& rendered, const Flags& flags, const fs::path& dir) {
+  std::vector<StampedPose> poses;
+  for (const Frame& frame : rendered.frames) {
+    const Eigen::Vector3d centre = rendered.true_centres.at(frame.name);
+    StampedPose pose;
+    pose.timestamp = frame.timestamp;
+    pose.world_from_cam.translation = centre;
+    poses.push_back(pose);
+  }
+  WriteTumTrajectory(poses, dir / "groundtruth.txt");
+  std::ofstream(dir / "camera.txt") << rendered.camera_text << "\n";
+  std::printf("render-only: %d photos, groundtruth.txt and camera.txt in %s\n", flags.num_photos,
+              dir.c_str());
+  return 0;
+}
+
 int Main(const Flags& flags) {
   // As flysfm, before any thread starts: the engine as it runs there.
   const bool malloc_policy = !flags.glibc_malloc_defaults && ApplyMallocPolicy();
@@ -277,6 +301,7 @@ int Main(const Flags& flags) {
   const RenderedSession rendered = Render(flags, dir);
   std::printf("render: %zu photos rendered (median %.0f ms each, one core), the others reused\n",
               rendered.render_ms.size(), Median(rendered.render_ms));
+  if (flags.render_only) return WriteGroundTruth(rendered, flags, dir);
 
   Engine::Options options;
   options.lsm_images.window_budget_megabytes = flags.window_budget_mb;
@@ -352,6 +377,13 @@ int main(int argc, char** argv) {
   app.add_flag("--no-real", flags.no_real, "Skip the real photo sets");
   app.add_flag("--glibc-malloc-defaults", flags.glibc_malloc_defaults,
                "Leave the allocator as glibc sets it (core/malloc_policy.h's baseline)");
+  app.add_flag("--render-only", flags.render_only,
+               "Only render the photos into --work, with groundtruth.txt and camera.txt, for "
+               "`flysfm batch` (scripts/bench_compare.sh)");
   CLI11_PARSE(app, argc, argv);
+  if (flags.render_only && flags.work.empty()) {
+    std::fprintf(stderr, "bench_photos: --render-only needs --work DIR\n");
+    return 2;
+  }
   return Main(flags);
 }

@@ -83,7 +83,8 @@ nlohmann::json ProfilePhotoPairs(const std::vector<Frame>& frames, const Camera&
     PairProfile p;
     auto start = Clock::now();
     const std::vector<FeatureMatch> raw =
-        MatchDescriptors(a.descriptors, b.descriptors, options.verification.matching);
+        MatchDescriptors(RootSift(a.descriptors), RootSift(b.descriptors),
+                         options.verification.matching);
     p.match_ms = MsSince(start);
     p.raw_matches = int(raw.size());
     std::vector<Eigen::Vector2d> pa, pb, na, nb;

@@ -283,13 +283,14 @@ void Engine::VerifyPairs(image_t image_id, const std::vector<RetrievalCandidate>
   // Until the model exists every candidate is matched: initialisation needs
   // the wide-baseline pairs, which rank low in retrieval.
   std::vector<char> lsm_refined(features_.at(image_id).size(), 0);
+  const FeatureDescriptors root_sift = RootSift(features_.at(image_id).descriptors);
   for (const RetrievalCandidate& candidate : candidates) {
     if (initialized_ && result->num_verified_pairs >= options_.max_verified_pairs) break;
     const image_t other_id = candidate.image_id;
     refinement_.tried_pairs.insert(ImagePairKey(image_id, other_id));
     PairVerification pair =
-        verifier_.Verify(image_id, features_.at(image_id), other_id, features_.at(other_id),
-                         lsm_refined, &result->times);
+        verifier_.Verify(image_id, features_.at(image_id), root_sift, other_id,
+                         features_.at(other_id), lsm_refined, &result->times);
     Image& image = reconstruction_.image(image_id);
     for (const auto& [point2D_idx, xy] : pair.refined) {
       image.points2D[point2D_idx].xy = xy;

@@ -13,7 +13,8 @@ namespace {
 
 constexpr char kImageRecordMagic[9] = "FSIMAGE1";
 constexpr char kSnapshotMagic[9] = "FSENGINE";
-constexpr std::uint32_t kCheckpointVersion = 3;
+// 4: descriptors as bytes (SiftDescriptors).
+constexpr std::uint32_t kCheckpointVersion = 4;
 
 std::string CameraText(const std::optional<Camera>& camera) {
   return camera ? camera->ToString() : std::string("unknown intrinsics");

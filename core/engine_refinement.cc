@@ -134,8 +134,8 @@ void Engine::MatchMorePairs(const std::function<bool()>& should_yield,
     const FeatureSet& features = features_.at(image_id);
     StageTimes times;
     PairVerification pair =
-        verifier_.Verify(image_id, features, other_id, features_.at(other_id),
-                         std::vector<char>(features.size(), 1), &times);
+        verifier_.Verify(image_id, features, RootSift(features.descriptors), other_id,
+                         features_.at(other_id), std::vector<char>(features.size(), 1), &times);
     if (!pair.verified()) continue;
     ++slice->num_pairs_verified;
     matches_.SetMatches(image_id, other_id, std::move(pair.matches));

@@ -18,14 +18,15 @@ PairVerifier::PairVerifier(const Options& options, const Reconstruction* reconst
 }
 
 PairVerification PairVerifier::Verify(image_t image_id, const FeatureSet& features,
-                                      image_t other_id, const FeatureSet& other_features,
+                                      const FeatureDescriptors& root_sift, image_t other_id,
+                                      const FeatureSet& other_features,
                                       const std::vector<char>& lsm_refined,
                                       StageTimes* times) const {
   PairVerification pair;
   std::vector<FeatureMatch> raw;
   {
     ScopedStageTimer timer(&times->matching);
-    raw = MatchDescriptors(features.descriptors, other_features.descriptors, options_.matching);
+    raw = MatchDescriptors(root_sift, RootSift(other_features.descriptors), options_.matching);
   }
   const int min_inliers = options_.two_view.min_num_inliers_f;
   if (int(raw.size()) < min_inliers) return pair;

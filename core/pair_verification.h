@@ -51,13 +51,16 @@ class PairVerifier {
   PairVerifier(const Options& options, const Reconstruction* reconstruction,
                LsmImageStore* lsm_images);
 
-  // `lsm_refined`: per keypoint of the new image, whether an earlier pair
-  // refined it already; such a keypoint keeps its position (it was refined
-  // against the more similar candidate) and is not refined again. Adds the
-  // matching, verification and LSM times to `times`.
-  PairVerification Verify(image_t image_id, const FeatureSet& features, image_t other_id,
-                          const FeatureSet& other_features, const std::vector<char>& lsm_refined,
-                          StageTimes* times) const;
+  // `root_sift`: RootSift(features.descriptors), which the caller computes
+  // once for all the new image's candidates (the candidate's is computed
+  // here). `lsm_refined`: per keypoint of the new image, whether an earlier
+  // pair refined it already; such a keypoint keeps its position (it was
+  // refined against the more similar candidate) and is not refined again.
+  // Adds the matching, verification and LSM times to `times`.
+  PairVerification Verify(image_t image_id, const FeatureSet& features,
+                          const FeatureDescriptors& root_sift, image_t other_id,
+                          const FeatureSet& other_features,
+                          const std::vector<char>& lsm_refined, StageTimes* times) const;
 
  private:
   Options options_;

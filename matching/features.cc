@@ -28,6 +28,12 @@ void RootSiftInPlace(FeatureDescriptors* descriptors) {
   }
 }
 
+FeatureDescriptors RootSift(const SiftDescriptors& sift) {
+  FeatureDescriptors root = sift.cast<float>();
+  RootSiftInPlace(&root);
+  return root;
+}
+
 namespace {
 
 // Of `max_num_features`, a share `large_scale_share` goes to the largest
@@ -153,9 +159,13 @@ FeatureSet ExtractFeatures(const cv::Mat& colour, cv::Mat grey, const SiftOption
     } else {
       out.r = out.g = out.b = colour.at<std::uint8_t>(py, px);
     }
-    std::copy_n(cv_descriptors.ptr<float>(kept[i]), 128, features.descriptors.row(i).data());
+    // Whole numbers 0-255 as OpenCV computes them (SiftDescriptors): the
+    // rounding and clamping change nothing.
+    const float* sift = cv_descriptors.ptr<float>(kept[i]);
+    for (int k = 0; k < 128; ++k) {
+      features.descriptors(i, k) = std::uint8_t(std::clamp(std::lround(sift[k]), 0L, 255L));
+    }
   }
-  RootSiftInPlace(&features.descriptors);
   return features;
 }
 
@@ -164,7 +174,7 @@ void WriteFeatureSet(std::ostream& out, const FeatureSet& features) {
   WriteValue(out, features.height);
   WriteVector(out, features.keypoints);
   out.write(reinterpret_cast<const char*>(features.descriptors.data()),
-            std::streamsize(sizeof(float) * features.descriptors.size()));
+            std::streamsize(features.descriptors.size()));
 }
 
 FeatureSet ReadFeatureSet(std::istream& in) {
@@ -174,7 +184,7 @@ FeatureSet ReadFeatureSet(std::istream& in) {
   features.keypoints = ReadVector<Keypoint>(in, "keypoints", std::size_t(1) << 24);
   features.descriptors.resize(features.size(), 128);
   if (!in.read(reinterpret_cast<char*>(features.descriptors.data()),
-               std::streamsize(sizeof(float) * features.descriptors.size()))) {
+               std::streamsize(features.descriptors.size()))) {
     throw std::runtime_error("file truncated while reading descriptors");
   }
   return features;

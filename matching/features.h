@@ -31,18 +31,26 @@ struct Keypoint {
   std::uint8_t b = 0;
 };
 
-// One RootSIFT descriptor per row (unit L2 norm). Row-major, so that a row is
-// contiguous and the block can be handed to OpenCV without a copy. 2 000
-// features take 1 MB.
+// One RootSIFT descriptor per row (unit L2 norm): what matching and
+// retrieval compare. Row-major, so that a row is contiguous and the block can
+// be handed to OpenCV and BLAS without a copy. 1 500 features take 768 kB.
 using FeatureDescriptors = Eigen::Matrix<float, Eigen::Dynamic, 128, Eigen::RowMajor>;
+
+// SIFT descriptors as OpenCV computes them, one per row. OpenCV rounds each
+// bin to a byte before it hands floats back (whole numbers 0-255), so a byte
+// holds each exactly: the engine keeps every image's descriptors, and its
+// checkpoint writes them, in a quarter of floats' memory, and RootSift()
+// gives, bit for bit, what floats would have given. 1 500 features take
+// 192 kB.
+using SiftDescriptors = Eigen::Matrix<std::uint8_t, Eigen::Dynamic, 128, Eigen::RowMajor>;
 
 struct FeatureSet {
   // Size of the full-resolution image the keypoints refer to.
   int width = 0;
   int height = 0;
   std::vector<Keypoint> keypoints;
-  // Row i describes keypoints[i].
-  FeatureDescriptors descriptors;
+  // Row i describes keypoints[i]; RootSift(descriptors) is what is compared.
+  SiftDescriptors descriptors;
 
   int size() const { return static_cast<int>(keypoints.size()); }
 };
@@ -98,5 +106,7 @@ FeatureSet ReadFeatureSet(std::istream& in);
 // (Arandjelovic & Zisserman 2012), so the Euclidean distance of RootSIFT
 // descriptors is the Hellinger distance of the SIFT histograms.
 void RootSiftInPlace(FeatureDescriptors* descriptors);
+// The RootSIFT descriptors of `sift` (about 0.1 ms for 1 500 features).
+FeatureDescriptors RootSift(const SiftDescriptors& sift);
 
 }  // namespace flysfm

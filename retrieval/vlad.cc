@@ -37,7 +37,9 @@ RowMatrixXf SampleDescriptors(const std::vector<const FeatureSet*>& images, int 
   }
   RowMatrixXf sample(picks.size(), 128);
   for (std::size_t k = 0; k < picks.size(); ++k) {
-    sample.row(k) = images[picks[k].first]->descriptors.row(picks[k].second);
+    FeatureDescriptors row = images[picks[k].first]->descriptors.row(picks[k].second).cast<float>();
+    RootSiftInPlace(&row);
+    sample.row(k) = row;
   }
   return sample;
 }
@@ -75,8 +77,9 @@ VladExtractor VladExtractor::Train(const std::vector<const FeatureSet*>& images,
   std::vector<Eigen::VectorXf> samples;
   std::uniform_real_distribution<double> side(0.4, 0.7), unit(0.0, 1.0);
   for (const FeatureSet* f : usable) {
-    const std::vector<int> words = vlad.AssignWords(f->descriptors);
-    samples.push_back(vlad.Aggregate(f->descriptors, words, nullptr));
+    const FeatureDescriptors root = RootSift(f->descriptors);
+    const std::vector<int> words = vlad.AssignWords(root);
+    samples.push_back(vlad.Aggregate(root, words, nullptr));
     for (int c = 0; c < options.crops_per_image; ++c) {
       const double w = side(rng) * f->width, h = side(rng) * f->height;
       const double x0 = unit(rng) * (f->width - w), y0 = unit(rng) * (f->height - h);
@@ -86,7 +89,7 @@ VladExtractor VladExtractor::Train(const std::vector<const FeatureSet*>& images,
         if (kp.x >= x0 && kp.x < x0 + w && kp.y >= y0 && kp.y < y0 + h) subset.push_back(k);
       }
       if (int(subset.size()) < options.min_crop_features) continue;
-      samples.push_back(vlad.Aggregate(f->descriptors, words, &subset));
+      samples.push_back(vlad.Aggregate(root, words, &subset));
     }
   }
   RowMatrixXf matrix(samples.size(), samples.front().size());
@@ -147,7 +150,8 @@ Eigen::VectorXf VladExtractor::Aggregate(const FeatureDescriptors& descriptors,
 
 Eigen::VectorXf VladExtractor::ComputeRaw(const FeatureSet& features) const {
   FLYSFM_CHECK(codebook_.rows() > 0);
-  return Aggregate(features.descriptors, AssignWords(features.descriptors), nullptr);
+  const FeatureDescriptors root = RootSift(features.descriptors);
+  return Aggregate(root, AssignWords(root), nullptr);
 }
 
 Eigen::VectorXf VladExtractor::Compute(const FeatureSet& features) const {

@@ -43,7 +43,8 @@ TEST_CASE("A rendered pair verifies, and LSM refines each keypoint once") {
   std::vector<char> refined(pair.features[1].size(), 0);
   StageTimes times;
   const PairVerification verification = verifier.Verify(
-      2, pair.features[1], 1, pair.features[0], refined, &times);
+      2, pair.features[1], RootSift(pair.features[1].descriptors), 1, pair.features[0], refined,
+      &times);
   REQUIRE(verification.verified());
   // The rendered scene is mostly one wall: E or H, with a pose either way.
   CHECK(verification.geometry.has_pose);
@@ -61,7 +62,8 @@ TEST_CASE("A rendered pair verifies, and LSM refines each keypoint once") {
   // Keypoints refined by an earlier pair keep their position.
   for (const auto& [idx, xy] : verification.refined) refined[idx] = 1;
   const PairVerification again = verifier.Verify(
-      2, pair.features[1], 1, pair.features[0], refined, &times);
+      2, pair.features[1], RootSift(pair.features[1].descriptors), 1, pair.features[0], refined,
+      &times);
   CHECK(again.refined.empty());
   CHECK(again.matches.size() >= verification.matches.size());
 
@@ -69,7 +71,9 @@ TEST_CASE("A rendered pair verifies, and LSM refines each keypoint once") {
   PairVerifier::Options raw;
   raw.lsm_refinement = false;
   const PairVerification plain = PairVerifier(raw, &pair.reconstruction, &pair.lsm_images)
-                                     .Verify(2, pair.features[1], 1, pair.features[0], refined, &times);
+                                     .Verify(2, pair.features[1],
+                                             RootSift(pair.features[1].descriptors), 1,
+                                             pair.features[0], refined, &times);
   CHECK(plain.refined.empty());
   CHECK(plain.num_lsm_rejected == 0);
   CHECK(int(plain.matches.size()) == plain.geometry.num_inliers);
@@ -97,8 +101,9 @@ TEST_CASE("Matches of a view from twice as near, turned, are refined on their sc
   }
   PairVerifier verifier(PairVerifier::Options(), &reconstruction, &lsm_images);
   StageTimes times;
-  const PairVerification pair = verifier.Verify(
-      2, features[1], 1, features[0], std::vector<char>(features[1].size(), 0), &times);
+  const PairVerification pair =
+      verifier.Verify(2, features[1], RootSift(features[1].descriptors), 1, features[0],
+                      std::vector<char>(features[1].size(), 0), &times);
   REQUIRE(pair.verified());
   INFO("angle " << angle_deg << ": " << pair.geometry.num_inliers << " inliers, "
                 << pair.matches.size() << " kept, " << pair.refined.size() << " refined");

@@ -43,7 +43,7 @@ Matches SiftMatches(const cv::Mat& image1, const cv::Mat& image2,
   const FeatureSet features2 = ExtractFeatures(image2, sift);
   Matches matches;
   for (const FeatureMatch& match : MatchDescriptors(
-           features1.descriptors, features2.descriptors, MatchOptions())) {
+           RootSift(features1.descriptors), RootSift(features2.descriptors), MatchOptions())) {
     matches.features1.push_back(FrameOf(features1.keypoints[match.idx1]));
     matches.features2.push_back(FrameOf(features2.keypoints[match.idx2]));
   }

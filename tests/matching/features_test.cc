@@ -3,9 +3,11 @@
 #include <algorithm>
 #include <sstream>
 #include <stdexcept>
+#include <set>
 #include <vector>
 
 #include <catch2/catch.hpp>
+#include <opencv2/features2d.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "io/synthetic/procedural_texture.h"
@@ -33,7 +35,8 @@ TEST_CASE("SIFT matches on a warped texture agree with the warp") {
   const testing::WarpedPair pair = testing::MakeWarpedPair(640, 480, 12.0, 0.9, 640, 480, 7);
   const FeatureSet f1 = ExtractFeatures(pair.image1, SiftOptions());
   const FeatureSet f2 = ExtractFeatures(pair.image2, SiftOptions());
-  const std::vector<FeatureMatch> matches = MatchDescriptors(f1.descriptors, f2.descriptors, {});
+  const std::vector<FeatureMatch> matches =
+      MatchDescriptors(RootSift(f1.descriptors), RootSift(f2.descriptors), {});
   REQUIRE(matches.size() >= 200);
   CHECK(MedianWarpError(f1, f2, matches, pair.homography) < 0.5);
 }
@@ -49,7 +52,8 @@ TEST_CASE("keypoints of a downscaled extraction are in full-resolution pixels") 
   const FeatureSet f2 = ExtractFeatures(pair.image2, small);
   CHECK(f2.width == 1400);
   CHECK(f2.height == 1000);
-  const std::vector<FeatureMatch> matches = MatchDescriptors(f1.descriptors, f2.descriptors, {});
+  const std::vector<FeatureMatch> matches =
+      MatchDescriptors(RootSift(f1.descriptors), RootSift(f2.descriptors), {});
   REQUIRE(matches.size() >= 200);
   CHECK(MedianWarpError(f1, f2, matches, pair.homography) < 1.0);
   for (const Keypoint& kp : f2.keypoints) {
@@ -58,15 +62,39 @@ TEST_CASE("keypoints of a downscaled extraction are in full-resolution pixels") 
   }
 }
 
-TEST_CASE("descriptors are RootSIFT and the feature count is capped") {
+TEST_CASE("descriptors are OpenCV's SIFT bytes, their RootSIFT unit vectors, the count capped") {
   SiftOptions options;
   options.max_num_features = 500;
-  const FeatureSet f = ExtractFeatures(MakeTexture(640, 480, 1), options);
+  const cv::Mat texture = MakeTexture(640, 480, 1);
+  const FeatureSet f = ExtractFeatures(texture, options);
   REQUIRE(f.size() == 500);
   CHECK(f.descriptors.rows() == f.size());
+  const FeatureDescriptors root = RootSift(f.descriptors);
   for (int i = 0; i < f.size(); ++i) {
-    REQUIRE(f.descriptors.row(i).norm() == Approx(1.0).margin(1e-4));
-    REQUIRE(f.descriptors.row(i).minCoeff() >= 0.f);
+    REQUIRE(root.row(i).norm() == Approx(1.0).margin(1e-4));
+    REQUIRE(root.row(i).minCoeff() >= 0.f);
+  }
+  // OpenCV's float descriptors are whole numbers 0-255, which the bytes hold
+  // exactly: every one of the kept ones is among them.
+  REQUIRE(texture.type() == CV_8UC1);
+  std::vector<cv::KeyPoint> keypoints;
+  cv::Mat opencv;
+  cv::SIFT::create()->detectAndCompute(texture, cv::noArray(), keypoints, opencv);
+  int whole = 0;
+  for (int r = 0; r < opencv.rows; ++r) {
+    for (int c = 0; c < 128; ++c) whole += opencv.at<float>(r, c) == std::round(opencv.at<float>(r, c));
+  }
+  CHECK(whole == opencv.rows * 128);
+  std::set<std::vector<std::uint8_t>> from_opencv;
+  for (int r = 0; r < opencv.rows; ++r) {
+    std::vector<std::uint8_t> row(128);
+    for (int c = 0; c < 128; ++c) row[c] = std::uint8_t(opencv.at<float>(r, c));
+    from_opencv.insert(row);
+  }
+  for (int i = 0; i < f.size(); ++i) {
+    const std::vector<std::uint8_t> row(f.descriptors.row(i).data(),
+                                        f.descriptors.row(i).data() + 128);
+    REQUIRE(from_opencv.count(row) == 1);
   }
 }
 

@@ -20,14 +20,15 @@ MatchOptions Options(MatcherBackend backend) {
   return options;
 }
 
-const FeatureSet& TextureFeatures() {
-  static const FeatureSet features =
-      ExtractFeatures(MakeTexture(640, 480, 11), SiftOptions());
-  return features;
+// RootSIFT of a texture's features, what the matcher compares.
+const FeatureDescriptors& TextureDescriptors() {
+  static const FeatureDescriptors descriptors =
+      RootSift(ExtractFeatures(MakeTexture(640, 480, 11), SiftOptions()).descriptors);
+  return descriptors;
 }
 
 TEST_CASE("ratio and mutual tests reject a shuffled-descriptor pair") {
-  const FeatureDescriptors& d1 = TextureFeatures().descriptors;
+  const FeatureDescriptors& d1 = TextureDescriptors();
   REQUIRE(d1.rows() > 500);
   // Each descriptor's 128 bins permuted at random: same statistics as real
   // RootSIFT, no true correspondence.
@@ -51,7 +52,7 @@ TEST_CASE("ratio and mutual tests reject a shuffled-descriptor pair") {
 }
 
 TEST_CASE("a permuted copy matches one-to-one with both back-ends") {
-  const FeatureDescriptors& d1 = TextureFeatures().descriptors;
+  const FeatureDescriptors& d1 = TextureDescriptors();
   std::vector<int> permutation(d1.rows());
   std::iota(permutation.begin(), permutation.end(), 0);
   std::mt19937 rng(5);
@@ -71,9 +72,9 @@ TEST_CASE("approximate matching finds most exact matches on a warped pair") {
   const testing::WarpedPair pair = testing::MakeWarpedPair(640, 480, 20.0, 1.1, 640, 480, 9);
   const FeatureSet f1 = ExtractFeatures(pair.image1, SiftOptions());
   const FeatureSet f2 = ExtractFeatures(pair.image2, SiftOptions());
-  const auto exact = MatchDescriptors(f1.descriptors, f2.descriptors, Options(MatcherBackend::kExact));
-  const auto approx =
-      MatchDescriptors(f1.descriptors, f2.descriptors, Options(MatcherBackend::kApproximate));
+  const FeatureDescriptors d1 = RootSift(f1.descriptors), d2 = RootSift(f2.descriptors);
+  const auto exact = MatchDescriptors(d1, d2, Options(MatcherBackend::kExact));
+  const auto approx = MatchDescriptors(d1, d2, Options(MatcherBackend::kApproximate));
   REQUIRE(exact.size() >= 200);
   std::set<std::pair<int, int>> exact_set;
   for (const FeatureMatch& m : exact) exact_set.insert({m.idx1, m.idx2});
@@ -86,7 +87,7 @@ TEST_CASE("approximate matching finds most exact matches on a warped pair") {
 }
 
 TEST_CASE("empty inputs give no matches and bad options are rejected") {
-  const FeatureDescriptors& d = TextureFeatures().descriptors;
+  const FeatureDescriptors& d = TextureDescriptors();
   const FeatureDescriptors empty(0, 128);
   CHECK(MatchDescriptors(empty, d, {}).empty());
   CHECK(MatchDescriptors(d, empty, Options(MatcherBackend::kApproximate)).empty());

@@ -4,6 +4,8 @@
 // share most of their descriptors (with noise), views of different places
 // share none. Cheap enough for hundreds of images.
 
+#include <algorithm>
+#include <cmath>
 #include <random>
 #include <vector>
 
@@ -15,7 +17,7 @@ class PlaceFeatures {
  public:
   PlaceFeatures(int num_places, std::uint32_t seed) : rng_(seed) {
     for (int p = 0; p < num_places; ++p) {
-      FeatureDescriptors pool(300, 128);
+      SiftDescriptors pool(300, 128);
       for (int i = 0; i < pool.rows(); ++i) pool.row(i) = RandomDescriptor();
       pools_.push_back(pool);
     }
@@ -30,13 +32,17 @@ class PlaceFeatures {
     const int n = 300;
     features.descriptors.resize(n, 128);
     std::uniform_int_distribution<int> pick(0, int(pools_[place].rows()) - 1);
-    std::normal_distribution<float> noise(0.f, 0.02f);
+    // Multiplicative, on the SIFT histogram: about 0.02 on the unit RootSIFT
+    // vector, as two views of one point differ.
+    std::normal_distribution<float> noise(0.f, 0.4f);
     std::uniform_real_distribution<float> x(0.f, 639.f), y(0.f, 479.f);
     for (int i = 0; i < n; ++i) {
       if (i < 240) {
-        Eigen::Matrix<float, 1, 128> d = pools_[place].row(pick(rng_));
-        for (int k = 0; k < 128; ++k) d[k] = std::abs(d[k] + noise(rng_));
-        features.descriptors.row(i) = d.normalized();
+        const auto d = pools_[place].row(pick(rng_));
+        for (int k = 0; k < 128; ++k) {
+          features.descriptors(i, k) = std::uint8_t(
+              std::clamp(std::lround(float(d[k]) * std::exp(noise(rng_))), 0L, 255L));
+        }
       } else {
         features.descriptors.row(i) = RandomDescriptor();
       }
@@ -50,17 +56,19 @@ class PlaceFeatures {
   }
 
  private:
-  // RootSIFT-like: non-negative, sparse-ish, unit norm.
-  Eigen::Matrix<float, 1, 128> RandomDescriptor() {
+  // SIFT-like: bytes, sparse-ish (a product of two exponentials), the
+  // largest bins near OpenCV's.
+  Eigen::Matrix<std::uint8_t, 1, 128> RandomDescriptor() {
     std::exponential_distribution<float> exponential(1.f);
-    Eigen::Matrix<float, 1, 128> d;
-    for (int k = 0; k < 128; ++k) d[k] = exponential(rng_) * exponential(rng_);
-    d /= d.sum();
-    return d.cwiseSqrt();
+    Eigen::Matrix<std::uint8_t, 1, 128> d;
+    for (int k = 0; k < 128; ++k) {
+      d[k] = std::uint8_t(std::min(255.f, std::round(20.f * exponential(rng_) * exponential(rng_))));
+    }
+    return d;
   }
 
   std::mt19937 rng_;
-  std::vector<FeatureDescriptors> pools_;
+  std::vector<SiftDescriptors> pools_;
 };
 
 }  // namespace flysfm::testing
