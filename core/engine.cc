@@ -588,6 +588,11 @@ bool Engine::RefinedToTheEnd() const {
          state.to_retriangulate.empty() && !state.snoop;
 }
 
+bool Engine::HasImageFile(image_t image_id) const {
+  const auto file = image_files_.find(image_id);
+  return file != image_files_.end() && !file->second.empty();
+}
+
 std::vector<std::string> Engine::PendingImageNames() const {
   std::vector<std::string> names;
   for (const image_t id : pending_.Images()) names.push_back(reconstruction_.image(id).name);

@@ -366,6 +366,9 @@ class Engine {
   Reconstruction::Changes TakeReconstructionChanges() { return reconstruction_.TakeChanges(); }
   // What LSM keeps of the images (its memory, for benchmarks and tests).
   const LsmImageStore& lsm_images() const { return lsm_images_; }
+  // Whether the image came from a file, from which a restored engine can
+  // cut its LSM windows again (a checkpoint then need not hold them).
+  bool HasImageFile(image_t image_id) const;
   std::vector<std::string> PendingImageNames() const;
   int num_rejected() const { return num_rejected_; }
   bool initialized() const { return initialized_; }

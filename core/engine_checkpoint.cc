@@ -180,7 +180,14 @@ void Engine::Restore(std::istream& snapshot, const CheckpointFiles& files) {
         }
         return decoded.grey;
       },
-      files.windows);
+      files.windows,
+      [this](image_t image_id) {
+        std::vector<Eigen::Vector2d> points;
+        for (const Point2D& point2D : reconstruction_.image(image_id).points2D) {
+          points.push_back(point2D.xy);
+        }
+        return points;
+      });
   // Refinement starts over: the pairs it tried are not checkpointed, and
   // are tried again between the next shots.
   for (const auto& [image_id, image] : reconstruction_.images()) {

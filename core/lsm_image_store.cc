@@ -41,25 +41,29 @@ LsmImageStore::LsmImageStore(const Options& options) : options_(options) {
   if (!options_.Check()) throw std::invalid_argument("invalid LSM image store options");
 }
 
-void LsmImageStore::Add(image_t image_id, cv::Mat grey) {
-  Entry entry;
-  entry.arrival = next_arrival_++;
-  entry.levels.resize(options_.num_pyramid_levels);
-  entry.levels[0].whole = std::move(grey);
+std::vector<LsmImageStore::Level> LsmImageStore::BuildLevels(cv::Mat grey) const {
+  std::vector<Level> levels(options_.num_pyramid_levels);
+  levels[0].whole = std::move(grey);
   for (int l = 0; l < options_.num_pyramid_levels; ++l) {
-    Level& level = entry.levels[l];
-    if (l > 0) cv::pyrDown(entry.levels[l - 1].whole, level.whole);
+    Level& level = levels[l];
+    if (l > 0) cv::pyrDown(levels[l - 1].whole, level.whole);
     level.width = level.whole.cols;
     level.height = level.whole.rows;
   }
+  return levels;
+}
+
+void LsmImageStore::Add(image_t image_id, cv::Mat grey) {
+  Entry entry;
+  entry.arrival = next_arrival_++;
+  entry.levels = BuildLevels(std::move(grey));
   entries_[image_id] = std::move(entry);
 }
 
-void LsmImageStore::KeepWindows(image_t image_id, const std::vector<Eigen::Vector2d>& points) {
-  Entry& entry = entries_.at(image_id);
-  if (!entry.whole) return;
-  for (int l = 0; l < int(entry.levels.size()); ++l) {
-    Level& level = entry.levels[l];
+void LsmImageStore::CutTiles(const std::vector<Eigen::Vector2d>& points, Entry* entry) const {
+  entry->bytes = 0;
+  for (int l = 0; l < int(entry->levels.size()); ++l) {
+    Level& level = entry->levels[l];
     const int reach = l == 0 ? options_.template_reach_px : options_.coarse_template_reach_px;
     level.tiles_x = (level.width + kTile - 1) / kTile;
     const int tiles_y = (level.height + kTile - 1) / kTile;
@@ -91,16 +95,12 @@ void LsmImageStore::KeepWindows(image_t image_id, const std::vector<Eigen::Vecto
       }
     }
     level.whole.release();
-    entry.bytes += level.tiles.size() + level.offsets.size() * sizeof(std::int64_t);
+    entry->bytes += level.tiles.size() + level.offsets.size() * sizeof(std::int64_t);
   }
-  entry.whole = false;
-  if (search_image_id_ == image_id) {
-    search_image_id_ = kInvalidImageId;
-    search_pyramid_.clear();
-  }
-  recency_.push_front(image_id);
-  entry.recency = recency_.begin();
-  window_bytes_ += entry.bytes;
+  entry->whole = false;
+}
+
+void LsmImageStore::EnforceBudget() {
   const std::size_t budget = std::size_t(options_.window_budget_megabytes) << 20;
   while (window_bytes_ > budget && !recency_.empty()) {
     const auto evicted = entries_.find(recency_.back());
@@ -108,6 +108,39 @@ void LsmImageStore::KeepWindows(image_t image_id, const std::vector<Eigen::Vecto
     entries_.erase(evicted);
     recency_.pop_back();
   }
+}
+
+void LsmImageStore::KeepWindows(image_t image_id, const std::vector<Eigen::Vector2d>& points) {
+  Entry& entry = entries_.at(image_id);
+  if (!entry.whole) return;
+  CutTiles(points, &entry);
+  if (search_image_id_ == image_id) {
+    search_image_id_ = kInvalidImageId;
+    search_pyramid_.clear();
+  }
+  recency_.push_front(image_id);
+  entry.recency = recency_.begin();
+  window_bytes_ += entry.bytes;
+  EnforceBudget();
+}
+
+bool LsmImageStore::MaterializeDeferred(image_t image_id) {
+  Entry& entry = entries_.at(image_id);
+  cv::Mat grey = entry.deferred_grey();
+  if (grey.empty()) {
+    recency_.erase(entry.recency);
+    entries_.erase(image_id);
+    return false;
+  }
+  entry.levels = BuildLevels(std::move(grey));
+  CutTiles(entry.deferred_points, &entry);
+  entry.deferred_grey = nullptr;
+  entry.deferred_points = {};
+  window_bytes_ += entry.bytes;
+  // The entry was just used: it is the most recent, never the one evicted.
+  recency_.splice(recency_.begin(), recency_, entry.recency);
+  EnforceBudget();
+  return true;
 }
 
 bool LsmImageStore::IsWhole(image_t image_id) const {
@@ -165,10 +198,12 @@ cv::Mat LsmImageStore::CutFromTiles(const Level& level, const cv::Rect& rect) {
 LsmImage LsmImageStore::Window(image_t image_id, int level_index,
                                const Eigen::Vector2d& point, int reach) {
   const auto it = entries_.find(image_id);
-  if (it == entries_.end() || level_index < 0 || level_index >= int(it->second.levels.size())) {
+  if (it == entries_.end() || level_index < 0 ||
+      level_index >= options_.num_pyramid_levels) {
     return {};
   }
-  Entry& entry = it->second;
+  if (it->second.deferred_grey && !MaterializeDeferred(image_id)) return {};
+  Entry& entry = entries_.at(image_id);
   const Level& level = entry.levels[level_index];
   const cv::Rect rect = WindowRect(level_index, point, reach, level.width, level.height);
   if (rect.empty()) return {};
@@ -217,7 +252,8 @@ void LsmImageStore::WriteState(std::ostream& out) const {
 }
 
 void LsmImageStore::ReadState(std::istream& in, const GreyLoader& load_grey,
-                              const WindowsLoader& load_windows) {
+                              const WindowsLoader& load_windows,
+                              const PointsLoader& load_points) {
   FLYSFM_CHECK(entries_.empty());
   next_arrival_ = ReadValue<std::uint64_t>(in, "LSM image arrivals");
   const std::size_t num_whole = ReadCount(in, "whole LSM images", std::size_t(1) << 24);
@@ -234,10 +270,17 @@ void LsmImageStore::ReadState(std::istream& in, const GreyLoader& load_grey,
     const auto image_id = ReadValue<image_t>(in, "LSM image kept as tiles");
     const auto arrival = ReadValue<std::uint64_t>(in, "LSM image arrival");
     const std::unique_ptr<std::istream> windows = load_windows(image_id);
-    if (!windows) continue;
     Entry entry;
     entry.arrival = arrival;
     entry.whole = false;
+    if (!windows) {
+      entry.deferred_grey = [load_grey, image_id] { return load_grey(image_id); };
+      entry.deferred_points = load_points(image_id);
+      recency_.push_back(image_id);
+      entry.recency = std::prev(recency_.end());
+      entries_[image_id] = std::move(entry);
+      continue;
+    }
     entry.levels.resize(ReadCount(*windows, "LSM levels", 8));
     if (int(entry.levels.size()) != options_.num_pyramid_levels) continue;
     for (Level& level : entry.levels) {

@@ -97,15 +97,20 @@ class LsmImageStore {
   // tiles); the state is which images are kept, in which order.
   void WriteWindows(image_t image_id, std::ostream& out) const;
   void WriteState(std::ostream& out) const;
-  // Restores a written state into an empty store. `load_grey` gives a whole
+  // Restores a written state into an empty store. `load_grey` gives an
   // image's grey pixels again (decoded from its file), `load_windows` an
-  // image's written tiles; an image either cannot give (empty, nullptr) is
-  // kept no more, as if the budget had dropped it. Throws
-  // std::runtime_error on a truncated or inconsistent stream.
+  // image's written tiles. A whole image is loaded at once. An image kept
+  // as tiles whose tiles were not written (its file holds them: the
+  // checkpoint need not) gets them cut from `load_grey` around
+  // `load_points` the first time LSM asks for a window: a restart decodes
+  // no more than the next images' LSM reads. An image that gives neither
+  // (empty, nullptr) is kept no more, as if the budget had dropped it.
+  // Throws std::runtime_error on a truncated or inconsistent stream.
   using GreyLoader = std::function<cv::Mat(image_t)>;
   using WindowsLoader = std::function<std::unique_ptr<std::istream>(image_t)>;
+  using PointsLoader = std::function<std::vector<Eigen::Vector2d>(image_t)>;
   void ReadState(std::istream& in, const GreyLoader& load_grey,
-                 const WindowsLoader& load_windows);
+                 const WindowsLoader& load_windows, const PointsLoader& load_points);
 
  private:
   struct Level {
@@ -124,9 +129,22 @@ class LsmImageStore {
     bool whole = true;
     std::size_t bytes = 0;  // of the tiles
     std::list<image_t>::iterator recency;  // among images kept as tiles
+    // Restored without its tiles: they are cut from these when first read.
+    std::function<cv::Mat()> deferred_grey;
+    std::vector<Eigen::Vector2d> deferred_points;
   };
   static constexpr int kTile = 16;
 
+  // The 8-bit pyramid of `grey`, every level whole.
+  std::vector<Level> BuildLevels(cv::Mat grey) const;
+  // Keeps only the tiles of `entry`'s whole levels around `points`; sets
+  // its bytes.
+  void CutTiles(const std::vector<Eigen::Vector2d>& points, Entry* entry) const;
+  // Drops the least recently used tiles while over the budget.
+  void EnforceBudget();
+  // Cuts a deferred entry's tiles; false (and the entry dropped) when its
+  // pixels cannot be had.
+  bool MaterializeDeferred(image_t image_id);
   // Cuts a window from the tiles; empty when one is missing.
   static cv::Mat CutFromTiles(const Level& level, const cv::Rect& rect);
 

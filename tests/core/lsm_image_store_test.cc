@@ -234,7 +234,8 @@ TEST_CASE("A store restored from its checkpoint gives the same windows and keeps
   LsmImageStore restored(options);
   restored.ReadState(
       state, [&](image_t id) { return Texture(width, height, int(id)); },
-      [&](image_t id) { return std::make_unique<std::istringstream>(windows.at(id)); });
+      [&](image_t id) { return std::make_unique<std::istringstream>(windows.at(id)); },
+      [&](image_t) { return points; });
   CHECK(restored.WholeImages() == original.WholeImages());
   CHECK(restored.window_bytes() == original.window_bytes());
   for (const image_t id : {image_t(1), image_t(2), image_t(3)}) {
@@ -249,14 +250,44 @@ TEST_CASE("A store restored from its checkpoint gives the same windows and keeps
     }
   }
 
+  // Tiles not written are cut again from the image's pixels around its
+  // points, when LSM first reads them; a restore decodes nothing before.
+  state.clear();
+  state.seekg(0);
+  LsmImageStore deferred(options);
+  int num_decoded = 0;
+  deferred.ReadState(
+      state,
+      [&](image_t id) {
+        ++num_decoded;
+        return Texture(width, height, int(id));
+      },
+      [](image_t) { return std::unique_ptr<std::istream>(); }, [&](image_t) { return points; });
+  const int num_whole = int(original.WholeImages().size());
+  CHECK(num_decoded == num_whole);
+  for (const image_t id : {image_t(1), image_t(2)}) {
+    for (int level = 0; level < options.num_pyramid_levels; ++level) {
+      for (const Eigen::Vector2d& point : points) {
+        const LsmImage a = original.Window(id, level, point, options.coarse_template_reach_px);
+        const LsmImage b = deferred.Window(id, level, point, options.coarse_template_reach_px);
+        REQUIRE(a.width() == b.width());
+        REQUIRE(a.height() == b.height());
+        CHECK(std::equal(a.data(), a.data() + a.width() * a.height(), b.data()));
+      }
+    }
+  }
+  CHECK(num_decoded == num_whole + 2);
+  CHECK(deferred.window_bytes() == original.window_bytes());
+
   // An image whose pixels cannot be had again is left out, as if dropped.
   state.clear();
   state.seekg(0);
   LsmImageStore partial(options);
   partial.ReadState(
       state, [](image_t) { return cv::Mat(); },
-      [](image_t) { return std::unique_ptr<std::istream>(); });
+      [](image_t) { return std::unique_ptr<std::istream>(); }, [&](image_t) { return points; });
   CHECK(partial.WholeImages().empty());
+  CHECK(partial.Window(1, 0, points[0], options.template_reach_px).width() == 0);
   CHECK_FALSE(partial.HasPixels(1));
   CHECK(partial.window_bytes() == 0);
 
@@ -269,7 +300,8 @@ TEST_CASE("A store restored from its checkpoint gives the same windows and keeps
   CHECK_THROWS_AS(
       refused.ReadState(
           state, [&](image_t id) { return Texture(width, height, int(id)); },
-          [&](image_t) { return std::make_unique<std::istringstream>(bad); }),
+          [&](image_t) { return std::make_unique<std::istringstream>(bad); },
+          [&](image_t) { return points; }),
       std::runtime_error);
 }
 
