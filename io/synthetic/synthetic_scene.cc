@@ -10,35 +10,41 @@
 
 namespace flysfm {
 
-Eigen::Vector2d TexturedFacet::Coordinates(const Eigen::Vector3d& point) const {
+TexturedFacet::Plane TexturedFacet::ComputePlane() const {
+  Plane plane;
+  plane.normal = axis_u.cross(axis_v);
+  plane.uu = axis_u.squaredNorm();
+  plane.uv = axis_u.dot(axis_v);
+  plane.vv = axis_v.squaredNorm();
+  plane.determinant = plane.uu * plane.vv - plane.uv * plane.uv;
+  return plane;
+}
+
+Eigen::Vector2d TexturedFacet::Coordinates(const Eigen::Vector3d& point,
+                                           const Plane& plane) const {
   // The 2x2 Gram system of the (not necessarily orthogonal) axes.
   const Eigen::Vector3d offset = point - origin;
-  const double uu = axis_u.squaredNorm();
-  const double uv = axis_u.dot(axis_v);
-  const double vv = axis_v.squaredNorm();
   const double du = offset.dot(axis_u);
   const double dv = offset.dot(axis_v);
-  const double determinant = uu * vv - uv * uv;
-  return Eigen::Vector2d((vv * du - uv * dv) / determinant,
-                         (uu * dv - uv * du) / determinant);
+  return Eigen::Vector2d((plane.vv * du - plane.uv * dv) / plane.determinant,
+                         (plane.uu * dv - plane.uv * du) / plane.determinant);
 }
 
 double TexturedFacet::Intersect(const Eigen::Vector3d& ray_origin,
-                                const Eigen::Vector3d& direction) const {
-  const Eigen::Vector3d normal = axis_u.cross(axis_v);
-  const double along = normal.dot(direction);
+                                const Eigen::Vector3d& direction, const Plane& plane) const {
+  const double along = plane.normal.dot(direction);
   if (std::abs(along) < 1e-12) return -1.0;
-  const double lambda = normal.dot(origin - ray_origin) / along;
+  const double lambda = plane.normal.dot(origin - ray_origin) / along;
   if (lambda <= 0.0) return -1.0;
-  const Eigen::Vector2d st = Coordinates(ray_origin + lambda * direction);
+  const Eigen::Vector2d st = Coordinates(ray_origin + lambda * direction, plane);
   const double s = st.x();
   const double t = st.y();
   if (s < 0.0 || s > 1.0 || t < 0.0 || t > 1.0) return -1.0;
   return lambda;
 }
 
-float TexturedFacet::Sample(const Eigen::Vector3d& point_on_facet) const {
-  const Eigen::Vector2d st = Coordinates(point_on_facet);
+float TexturedFacet::Sample(const Eigen::Vector3d& point_on_facet, const Plane& plane) const {
+  const Eigen::Vector2d st = Coordinates(point_on_facet, plane);
   const double s = st.x();
   const double t = st.y();
   // Texel coordinates, clamped so that bilinear reads stay inside.
@@ -93,6 +99,8 @@ RenderedView Render(const TexturedScene& scene, const Camera& camera,
   const Eigen::Matrix3d world_from_cam =
       cam_from_world.rotation.conjugate().toRotationMatrix();
   const Eigen::Vector3d center = ProjectionCenter(cam_from_world);
+  std::vector<TexturedFacet::Plane> planes;
+  for (const TexturedFacet& facet : scene.facets) planes.push_back(facet.ComputePlane());
   cv::Mat sum(camera.height, camera.width, CV_32F, cv::Scalar(0));
   RenderedView view;
   view.depth = cv::Mat(camera.height, camera.width, CV_32F,
@@ -108,16 +116,16 @@ RenderedView Render(const TexturedScene& scene, const Camera& camera,
               camera.CamFromImg(pixel).homogeneous();
           const Eigen::Vector3d direction = world_from_cam * ray_in_cam;
           double nearest = std::numeric_limits<double>::infinity();
-          const TexturedFacet* hit = nullptr;
-          for (const TexturedFacet& facet : scene.facets) {
-            const double lambda = facet.Intersect(center, direction);
+          int hit = -1;
+          for (int f = 0; f < int(scene.facets.size()); ++f) {
+            const double lambda = scene.facets[f].Intersect(center, direction, planes[f]);
             if (lambda > 0.0 && lambda < nearest) {
               nearest = lambda;
-              hit = &facet;
+              hit = f;
             }
           }
-          if (hit == nullptr) continue;
-          total += hit->Sample(center + nearest * direction);
+          if (hit < 0) continue;
+          total += scene.facets[hit].Sample(center + nearest * direction, planes[hit]);
           // The ray's z in the camera is 1, so lambda is the depth.
           if (i == supersampling / 2 && j == supersampling / 2) {
             view.depth.at<float>(row, col) = static_cast<float>(nearest);

@@ -27,13 +27,26 @@ struct TexturedFacet {
   Eigen::Vector3d axis_v = Eigen::Vector3d::UnitY();
   cv::Mat texture;
 
+  // What every ray needs of the axes, computed once for the 1.2 million
+  // rays of a view rather than per ray.
+  struct Plane {
+    Eigen::Vector3d normal;                   // axis_u x axis_v
+    double uu = 0, uv = 0, vv = 0;            // the axes' Gram matrix
+    double determinant = 0;                   // uu vv - uv^2
+  };
+  Plane ComputePlane() const;
+
   // Ray parameter of the hit of origin + lambda direction, or a negative
   // value when the ray misses the facet.
+  double Intersect(const Eigen::Vector3d& ray_origin, const Eigen::Vector3d& direction,
+                   const Plane& plane) const;
   double Intersect(const Eigen::Vector3d& ray_origin,
-                   const Eigen::Vector3d& direction) const;
-  float Sample(const Eigen::Vector3d& point_on_facet) const;
+                   const Eigen::Vector3d& direction) const {
+    return Intersect(ray_origin, direction, ComputePlane());
+  }
+  float Sample(const Eigen::Vector3d& point_on_facet, const Plane& plane) const;
   // Facet coordinates (s, t) of a point on the facet's plane.
-  Eigen::Vector2d Coordinates(const Eigen::Vector3d& point) const;
+  Eigen::Vector2d Coordinates(const Eigen::Vector3d& point, const Plane& plane) const;
   // A point at facet coordinates (s, t).
   Eigen::Vector3d At(double s, double t) const {
     return origin + s * axis_u + t * axis_v;
