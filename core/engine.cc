@@ -553,19 +553,28 @@ std::vector<ImageResult> Engine::Finish(
     // One budget of time for the global BA and the snooping's.
     const double budget_s = std::max(options_.finishing.min_seconds,
                                      options_.finishing.max_share_of_run * work_seconds_);
-    const auto adjust_start = std::chrono::steady_clock::now();
+    // Counted from Finish's start, the retries included.
     const auto spent_s = [&] {
-      return std::chrono::duration<double>(std::chrono::steady_clock::now() - adjust_start)
-          .count();
+      return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     };
+    // An iteration costs about what the last one did: none starts that
+    // would end past the budget, so the budget bounds the end rather than
+    // being overrun by one iteration.
+    double last_iteration_end_s = spent_s();
+    double iteration_s = 0;
     options.on_iteration = [&](int iteration) {
       if (iteration == 0 && state.step == FinishProgress::Step::kSnoop) ++state.round;
+      const double now_s = spent_s();
+      // A round's iteration 0 ends the snooping's work between rounds, no
+      // iteration: the last cost stands.
+      if (iteration > 0) iteration_s = now_s - last_iteration_end_s;
+      last_iteration_end_s = now_s;
       state.iteration = iteration;
       state.max_iterations = options.max_num_iterations;
-      state.remaining_s = std::max(0.0, budget_s - spent_s());
+      state.remaining_s = std::max(0.0, budget_s - now_s);
       tell();
     };
-    options.should_stop = [&] { return spent_s() >= budget_s; };
+    options.should_stop = [&] { return spent_s() + iteration_s >= budget_s; };
     state.step = FinishProgress::Step::kAdjust;
     AdjustGlobalBundle(options, &reconstruction_);
     reconstruction_.FilterAllPoints3D(options_.filter_max_error_px,

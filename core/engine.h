@@ -211,10 +211,11 @@ class Engine {
       // in 6 iterations (1e-4) the ATE that 20 give (1e-6): 0.344 against
       // 0.340 cm, in 9.5 s against 25 s.
       double function_tolerance = 1e-4;
-      // The end's adjustments (the global BA, then the snooping's) stop
-      // after the iteration that brings their time past this share of the
-      // engine's own time in the run (its AddImage and Refine calls), or
-      // past `min_seconds` when that is more: the end costs the run a
+      // The end's adjustments (the global BA, then the snooping's) start
+      // no iteration that would, at the last one's cost, bring the end's
+      // time (its retries included) past this share of the engine's own
+      // time in the run (its AddImage and Refine calls), or past
+      // `min_seconds` when that is more: the end costs the run a
       // tenth at most whatever the session's length, and a small model
       // (a few dozen photos, a second's adjustments) is always adjusted to
       // convergence. On fr1_xyz the first BA iterations do most: 3 give an

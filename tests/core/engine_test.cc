@@ -405,6 +405,32 @@ TEST_CASE("Finish tells its steps and each iteration of its adjustments, within 
   CHECK(snoop >= 1);
 }
 
+TEST_CASE("With no time left for it, the end starts no adjustment iteration") {
+  SyntheticCaptureOptions capture_options;
+  capture_options.num_views = 6;
+  capture_options.seed = 4;
+  const SyntheticCapture capture = testing::RenderedCapture(capture_options);
+  Engine::Options options;
+  options.finishing.max_share_of_run = 0;
+  options.finishing.min_seconds = 0;
+  Engine engine(options, capture.camera);
+  for (const Frame& frame : capture.frames) engine.AddImage(frame);
+  std::vector<Engine::FinishProgress> told;
+  engine.Finish([&](const Engine::FinishProgress& progress) { told.push_back(progress); });
+  int num_adjust = 0;
+  for (const Engine::FinishProgress& progress : told) {
+    // The global BA evaluates its start (iteration 0) and stops there; the
+    // snooping, which needs time left, never begins.
+    CHECK(progress.step != Engine::FinishProgress::Step::kSnoop);
+    if (progress.step != Engine::FinishProgress::Step::kAdjust) continue;
+    ++num_adjust;
+    CHECK(progress.iteration == 0);
+    CHECK(progress.remaining_s == 0.0);
+  }
+  CHECK(num_adjust == 1);
+  CHECK(engine.reconstruction().NumRegisteredImages() == capture.frames.size());
+}
+
 TEST_CASE("Invalid options are refused, naming the option") {
   Engine::Options options;
   options.max_verified_pairs = 0;
