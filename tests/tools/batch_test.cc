@@ -165,7 +165,7 @@ TEST_CASE("batch A B without EXIF capture times: the folders take turns, in name
   CHECK(summary["images_in"] == names.size());
 }
 
-TEST_CASE("batch of one folder names its images as before; a TUM sequence is not merged") {
+TEST_CASE("batch of one folder names its images as before, and a TUM sequence is not merged") {
   const fs::path dir = testing::MakeTempDir("batch_one");
   testing::WriteTestJpegs(dir / "shots", 3);
   const fs::path out = dir / "out";
