@@ -128,6 +128,7 @@ PreparedFrame Engine::Prepare(const Frame& frame, const Options& options) {
   prepared.frame.path = frame.path;
   prepared.frame.timestamp = frame.timestamp;
   prepared.frame.arrival = frame.arrival;
+  prepared.frame.source = frame.source;
   auto start = std::chrono::steady_clock::now();
   // Colours are read only at keypoints, which SIFT finds on a copy of at
   // most max_image_size pixels: a colour image reduced to about that size

@@ -111,6 +111,42 @@ std::string ExifCameraIdentity(ExifData* exif) {
   return identity == "||||" ? std::string() : identity;
 }
 
+// Days from 1970-01-01 to a date of the proleptic Gregorian calendar
+// (H. Hinnant's days_from_civil): no time zone of the process gets in.
+std::int64_t DaysFromCivil(std::int64_t year, unsigned month, unsigned day) {
+  year -= month <= 2;
+  const std::int64_t era = (year >= 0 ? year : year - 399) / 400;
+  const unsigned year_of_era = unsigned(year - era * 400);
+  const unsigned day_of_year = (153 * (month > 2 ? month - 3 : month + 9) + 2) / 5 + day - 1;
+  const unsigned day_of_era = year_of_era * 365 + year_of_era / 4 - year_of_era / 100 + day_of_year;
+  return era * 146097 + std::int64_t(day_of_era) - 719468;
+}
+
+std::optional<double> ExifCaptureTime(ExifData* exif) {
+  const std::string text = ExifText(exif, EXIF_TAG_DATE_TIME_ORIGINAL);
+  int year = 0, month = 0, day = 0, hour = 0, minute = 0, second = 0;
+  if (std::sscanf(text.c_str(), "%4d:%2d:%2d %2d:%2d:%2d", &year, &month, &day, &hour, &minute,
+                  &second) != 6) {
+    return std::nullopt;
+  }
+  // A leap second is 60.
+  if (year < 1 || month < 1 || month > 12 || day < 1 || day > 31 || hour < 0 || hour > 23 ||
+      minute < 0 || minute > 59 || second < 0 || second > 60) {
+    return std::nullopt;
+  }
+  double time = double(DaysFromCivil(year, unsigned(month), unsigned(day))) * 86400.0 +
+                hour * 3600.0 + minute * 60.0 + second;
+  // "SubSecTimeOriginal": the digits of the fraction ("05" is 0.05 s).
+  const std::string sub_second = ExifText(exif, EXIF_TAG_SUB_SEC_TIME_ORIGINAL);
+  double scale = 0.1;
+  for (const char c : sub_second) {
+    if (c < '0' || c > '9') break;
+    time += (c - '0') * scale;
+    scale /= 10;
+  }
+  return time;
+}
+
 DecodedImage Failure(std::string message) {
   DecodedImage result;
   result.error = std::move(message);
@@ -214,6 +250,18 @@ ExifFields ReadExif(const std::uint8_t* data, std::size_t size, int width, int h
     exif_data_unref(exif);
   }
   return fields;
+}
+
+std::optional<double> ReadExifCaptureTime(const std::uint8_t* data, std::size_t size) {
+  const unsigned int length = static_cast<unsigned int>(
+      std::min<std::size_t>(size, std::numeric_limits<unsigned int>::max()));
+  if (data == nullptr || length == 0) return std::nullopt;
+  std::optional<double> time;
+  if (ExifData* exif = exif_data_new_from_data(data, length)) {
+    time = ExifCaptureTime(exif);
+    exif_data_unref(exif);
+  }
+  return time;
 }
 
 DecodedImage DecodeImageBytes(const std::uint8_t* data, std::size_t size,

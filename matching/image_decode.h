@@ -80,6 +80,14 @@ struct ExifFields {
 // "Exif\0\0"), for an image of `width` x `height` pixels (focal lengths in
 // pixels scale with the image). Bytes without readable EXIF give no fields.
 ExifFields ReadExif(const std::uint8_t* data, std::size_t size, int width, int height);
+// When the shot was taken, from EXIF DateTimeOriginal with its
+// SubSecTimeOriginal digits when present: seconds from 1970-01-01 00:00 on
+// the camera's own clock (EXIF gives no time zone without the optional
+// OffsetTimeOriginal, which is not read, so times compare between cameras
+// whose clocks were set alike). `data` as for ReadExif; the head of a JPEG
+// holding its APP1 segment is enough. nullopt without the tag, or for a date
+// a camera whose clock was never set writes ("0000:00:00 00:00:00").
+std::optional<double> ReadExifCaptureTime(const std::uint8_t* data, std::size_t size);
 
 // The size libjpeg's DCT scaling gives an image of `full` size reduced by
 // `reduction` (2, 4 or 8; 1 leaves it): each side rounded up.

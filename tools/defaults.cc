@@ -16,6 +16,7 @@
 #include "io/camfi/camfi_client.h"
 #include "io/camfi/camfi_emulator.h"
 #include "io/run/checkpoint.h"
+#include "io/sources/merged_source.h"
 #include "io/sources/watched_folder.h"
 #include "io/synthetic/synthetic_source.h"
 #include "io/view/view_server.h"
@@ -104,6 +105,15 @@ std::string Format(BundleAdjuster::Options::Gauge value) {
   switch (value) {
     case Gauge::kConstantPosesOnly: return "constant-poses-only";
     case Gauge::kMinimal: return "minimal";
+  }
+  return "?";
+}
+std::string Format(MergedSourceOptions::Order value) {
+  using Order = MergedSourceOptions::Order;
+  switch (value) {
+    case Order::kArrival: return "arrival";
+    case Order::kCaptureTime: return "capture-time";
+    case Order::kRoundRobin: return "round-robin";
   }
   return "?";
 }
@@ -550,6 +560,12 @@ void List(const std::string& prefix, const WatchedFolderOptions& o, Out* out) {
   OPTION(state_file, "Where each file handed on is recorded (empty: nowhere)");
 }
 
+void List(const std::string& prefix, const MergedSourceOptions& o, Out* out) {
+  [[maybe_unused]] const auto& [order, queue_frames] = o;
+  OPTION(order, "Order frames are handed on in: arrival, capture-time or round-robin");
+  OPTION(queue_frames, "Frames read ahead per input before its reader waits");
+}
+
 void List(const std::string& prefix, const ViewServerOptions& o, Out* out) {
   [[maybe_unused]] const auto& [lan, port, token, max_clients, max_queued_messages,
                                 keepalive_seconds, write_timeout_seconds, thumbnail_width,
@@ -599,6 +615,7 @@ const Root kRoots[] = {
     {"camfi", "CamfiOptions", "io/camfi/camfi_client.h"},
     {"camfi_emulator", "CamfiEmulatorOptions", "io/camfi/camfi_emulator.h"},
     {"watch", "WatchedFolderOptions", "io/sources/watched_folder.h"},
+    {"merged_source", "MergedSourceOptions", "io/sources/merged_source.h"},
     {"view", "ViewServerOptions", "io/view/view_server.h"},
     {"retrieval_training", "RetrievalTrainingOptions", "retrieval/retrieval_model.h"},
     {"synthetic_capture", "SyntheticCaptureOptions", "io/synthetic/synthetic_source.h"},
@@ -671,6 +688,7 @@ std::vector<OptionDefault> ListOptionDefaults() {
   List("camfi.", CamfiOptions(), &out);
   List("camfi_emulator.", CamfiEmulatorOptions(), &out);
   List("watch.", WatchedFolderOptions(), &out);
+  List("merged_source.", MergedSourceOptions(), &out);
   List("view.", ViewServerOptions(), &out);
   List("retrieval_training.", RetrievalTrainingOptions(), &out);
   List("synthetic_capture.", SyntheticCaptureOptions(), &out);

@@ -21,8 +21,8 @@ struct OptionDefault {
 };
 
 // Roots in this order: engine, checkpoint, camfi, camfi_emulator, watch,
-// view, retrieval_training, synthetic_capture; within a root, members in
-// declaration order.
+// merged_source, view, retrieval_training, synthetic_capture; within a
+// root, members in declaration order.
 std::vector<OptionDefault> ListOptionDefaults();
 
 // The Markdown page docs/defaults.md: one table per root.

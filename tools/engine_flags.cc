@@ -90,6 +90,7 @@ int RunFromFlags(ImageSource* source, Engine* engine, const EngineFlags& flags,
   options.retry_quarantined = flags.retry_quarantined;
   options.live = run.live;
   options.skipped_entries = run.skipped_entries;
+  options.sources = run.sources;
   const std::unique_ptr<ViewServer> view = StartView(flags.view);
   const RunLoop::Summary summary = RunLoop(options, view.get()).Run(source, engine, run.hooks);
   if (view) {

@@ -8,6 +8,7 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include <CLI/CLI.hpp>
 
@@ -59,6 +60,9 @@ struct CommandRun {
   int skipped_entries = 0;
   // With --view: after the run, keep serving the page until Ctrl-C.
   bool keep_view = false;
+  // The tags of several merged sources (RunLoop::Options::sources); empty
+  // for one source.
+  std::vector<std::string> sources;
   RunLoop::Hooks hooks;
 };
 

@@ -5,6 +5,9 @@
 // same --out after a crash first re-feeds the CAMFI shots already in
 // DIR/images, or the watched files listed in DIR/watched.tsv, skipping
 // those the checkpointed model in DIR/state holds already (docs/live.md).
+// Several --camfi and --watch (one per photographer) feed one model through
+// a MergedSource, each source with its store or state file in
+// DIR/sources/<tag>/.
 
 #include <pthread.h>
 #include <signal.h>
@@ -12,11 +15,14 @@
 #include <cstdio>
 #include <functional>
 #include <iostream>
+#include <memory>
 #include <mutex>
+#include <set>
 #include <thread>
 
 #include "io/camfi/camfi_client.h"
 #include "io/run/output_lock.h"
+#include "io/sources/merged_source.h"
 #include "io/sources/watched_folder.h"
 #include "tools/commands.h"
 #include "tools/engine_flags.h"
@@ -55,12 +61,37 @@ void StartSignalThread() {
   }).detach();
 }
 
+// One photographer's source.
+struct LiveInput {
+  std::string tag;
+  std::unique_ptr<ImageSource> source;
+  CamfiSource* camfi = nullptr;  // the source, when it is a CAMFI one
+};
+
+void PrintCamfiStats(const std::string& label, const CamfiStats& stats) {
+  std::printf("%s: %d stored, %d replayed from the journal; %d events (%d duplicate), "
+              "%d found by listing; %d rejected downloads; %d sessions, %d ended by "
+              "errors\n",
+              label.c_str(), stats.stored, stats.replayed, stats.events, stats.duplicate_events,
+              stats.found_by_listing, stats.download_failures, stats.sessions,
+              stats.session_failures);
+  std::printf("%s: %d re-fetched to compare, %d new shots at a known path; %d failed "
+              "and %d truncated listings; %d oversized bodies, %d timed-out downloads, "
+              "%d rejected event packets; %d store failures (disk full?); journal: %d "
+              "records skipped, %d torn\n",
+              label.c_str(), stats.rechecked, stats.reused_paths, stats.listing_failures,
+              stats.truncated_listings, stats.oversized, stats.timed_out_downloads,
+              stats.rejected_packets, stats.store_failures, stats.journal_skipped,
+              stats.journal_torn);
+}
+
 }  // namespace
 
 void AddLiveCommand(CLI::App& app) {
   struct Flags {
-    std::string camfi;
-    std::string watch;
+    std::vector<std::string> camfi;
+    std::vector<std::string> watch;
+    std::vector<int> event_ports;
     CamfiOptions camfi_options;
     WatchedFolderOptions watch_options;
     EngineFlags engine;
@@ -74,20 +105,30 @@ void AddLiveCommand(CLI::App& app) {
   flags->engine.resume = true;
   CLI::App* command = app.add_subcommand(
       "live", "Process images while they are being shot: from a CAMFI WiFi transmitter "
-              "(or `flysfm camfi-emulator`) or from a folder something else writes into");
-  CLI::Option* camfi =
-      command->add_option("--camfi", flags->camfi,
-                          "CAMFI transmitter HOST[:HTTP_PORT] (AP-mode default address "
-                          "192.168.9.67, HTTP port 80); shots are stored in OUT/images");
-  CLI::Option* watch = command->add_option(
-      "--watch", flags->watch,
-      "Folder to watch (FTP upload folder, phone app, card reader); each complete image "
-      "is processed once, in the order files appear");
-  camfi->excludes(watch);
+              "(or `flysfm camfi-emulator`) or from a folder something else writes into; "
+              "several of either, one per photographer, feed one model");
+  command->add_option("--camfi", flags->camfi,
+                      "CAMFI transmitter HOST[:HTTP_PORT] (AP-mode default address "
+                      "192.168.9.67, HTTP port 80); shots are stored in OUT/images. Again "
+                      "for another photographer's: each source's store is then "
+                      "OUT/sources/camfi-HOST/images and its images are named camfi-HOST/...")
+      ->expected(1)
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
+  command->add_option("--watch", flags->watch,
+                      "Folder to watch (FTP upload folder, phone app, card reader); each "
+                      "complete image is processed once, in the order files appear. Again "
+                      "for another photographer's: each folder's state is then "
+                      "OUT/sources/TAG/watched.tsv (TAG: its base name) and its images are "
+                      "named TAG/...")
+      ->expected(1)
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
   AddEngineFlags(command, &flags->engine);
   CamfiOptions& c = flags->camfi_options;
-  command->add_option("--camfi-events-port", c.event_port,
-                      "CAMFI event (Socket.IO) port")->capture_default_str();
+  command->add_option("--camfi-events-port", flags->event_ports,
+                      "CAMFI event (Socket.IO) port (default 8080): once for every --camfi, "
+                      "or once per --camfi in their order")
+      ->expected(1)
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
   command->add_option("--camfi-password", c.password,
                       "CAMFI access password (HTTP authentication as user CamFi); "
                       "default: none");
@@ -143,64 +184,104 @@ void AddLiveCommand(CLI::App& app) {
   command->callback([flags]() {
     int exit_code = 0;
     try {
-      if (flags->camfi.empty() == flags->watch.empty()) {
-        throw std::invalid_argument("give exactly one of --camfi HOST[:PORT] and --watch DIR");
+      if (flags->camfi.empty() && flags->watch.empty()) {
+        throw std::invalid_argument("give --camfi HOST[:PORT] or --watch DIR (each as often "
+                                    "as there are photographers)");
+      }
+      if (!flags->event_ports.empty() && flags->event_ports.size() != 1 &&
+          flags->event_ports.size() != flags->camfi.size()) {
+        throw std::invalid_argument("give --camfi-events-port once, or once per --camfi");
       }
       const OutputLock lock(flags->engine.out);
       // Before anything (the engine's thread pools included) starts a thread.
       StartSignalThread();
       Engine engine = flags->engine.MakeEngine();
-      std::unique_ptr<ImageSource> source;
-      CamfiSource* camfi_source = nullptr;
-      if (!flags->camfi.empty()) {
+      const std::filesystem::path out(flags->engine.out);
+      // CAMFI sources first, then watched folders, each in the order given:
+      // the same command gives the same tags, which a restart finds its
+      // stores and images by.
+      std::vector<std::string> tags;
+      std::set<std::string> given;
+      for (const std::string& camfi : flags->camfi) {
+        if (!given.insert("camfi " + camfi).second) {
+          throw std::invalid_argument("--camfi " + camfi + " is given twice");
+        }
+        tags.push_back(SourceTagOfCamfi(camfi.substr(0, camfi.rfind(':'))));
+      }
+      for (const std::string& watch : flags->watch) {
+        if (!given.insert("watch " + std::filesystem::weakly_canonical(watch).string()).second) {
+          throw std::invalid_argument("--watch " + watch + " is given twice");
+        }
+        tags.push_back(SourceTagOfFolder(watch));
+      }
+      tags = UniqueSourceTags(tags);
+      const bool several = tags.size() > 1;
+      // One source keeps the layout of a single-source run: OUT/images,
+      // OUT/watched.tsv. Several: each its own folder, by tag.
+      const auto folder_of = [&](const std::string& tag) {
+        return several ? out / "sources" / tag : out;
+      };
+      std::vector<LiveInput> inputs;
+      for (std::size_t i = 0; i < flags->camfi.size(); ++i) {
+        const std::string& camfi = flags->camfi[i];
         CamfiOptions options = flags->camfi_options;
         options.tether_on_connect = !flags->no_tether;
-        const std::size_t colon = flags->camfi.rfind(':');
-        options.host = flags->camfi.substr(0, colon);
+        if (!flags->event_ports.empty()) {
+          options.event_port = flags->event_ports[flags->event_ports.size() == 1 ? 0 : i];
+        }
+        const std::size_t colon = camfi.rfind(':');
+        options.host = camfi.substr(0, colon);
         if (colon != std::string::npos) {
           try {
-            options.http_port = std::stoi(flags->camfi.substr(colon + 1));
+            options.http_port = std::stoi(camfi.substr(colon + 1));
           } catch (const std::exception&) {
-            throw std::invalid_argument("--camfi " + flags->camfi + ": bad port");
+            throw std::invalid_argument("--camfi " + camfi + ": bad port");
           }
         }
-        auto camfi = std::make_unique<CamfiSource>(
-            options, std::filesystem::path(flags->engine.out) / "images");
-        camfi_source = camfi.get();
-        std::printf("live: CAMFI at %s (HTTP %d, events %d); shots stored in %s/images; "
-                    "Ctrl-C to stop\n", options.host.c_str(), options.http_port,
-                    options.event_port, flags->engine.out.c_str());
-        source = std::move(camfi);
-      } else {
+        LiveInput input;
+        input.tag = tags[inputs.size()];
+        const std::filesystem::path store = folder_of(input.tag) / "images";
+        auto source = std::make_unique<CamfiSource>(options, store);
+        input.camfi = source.get();
+        input.source = std::move(source);
+        std::printf("live: %s%sCAMFI at %s (HTTP %d, events %d); shots stored in %s; "
+                    "Ctrl-C to stop\n", several ? input.tag.c_str() : "", several ? ": " : "",
+                    options.host.c_str(), options.http_port, options.event_port,
+                    store.c_str());
+        inputs.push_back(std::move(input));
+      }
+      for (const std::string& watch : flags->watch) {
         WatchedFolderOptions options = flags->watch_options;
-        options.state_file = std::filesystem::path(flags->engine.out) / "watched.tsv";
-        source = std::make_unique<WatchedFolderSource>(flags->watch, options);
-        std::printf("live: watching %s%s; Ctrl-C to stop\n", flags->watch.c_str(),
+        LiveInput input;
+        input.tag = tags[inputs.size()];
+        std::filesystem::create_directories(folder_of(input.tag));
+        options.state_file = folder_of(input.tag) / "watched.tsv";
+        input.source = std::make_unique<WatchedFolderSource>(watch, options);
+        std::printf("live: %s%swatching %s%s; Ctrl-C to stop\n",
+                    several ? input.tag.c_str() : "", several ? ": " : "", watch.c_str(),
                     options.recursive ? " and its sub-folders" : "");
+        inputs.push_back(std::move(input));
       }
       std::fflush(stdout);
-      SetStop([source = source.get()] { source->Stop(); });
-      LimitedSource limited(source.get(), flags->max_images > 0 ? flags->max_images : -1);
+      std::unique_ptr<MergedSource> merged;
+      ImageSource* source = inputs.front().source.get();
       CommandRun run;
       run.live = true;
+      if (several) {
+        std::vector<MergedSource::Input> merged_inputs;
+        for (const LiveInput& input : inputs) merged_inputs.push_back({input.tag, input.source.get()});
+        merged = std::make_unique<MergedSource>(std::move(merged_inputs));
+        source = merged.get();
+        run.sources = tags;
+      }
+      SetStop([source] { source->Stop(); });
+      LimitedSource limited(source, flags->max_images > 0 ? flags->max_images : -1);
       exit_code = RunFromFlags(&limited, &engine, flags->engine, run);
       SetStop(nullptr);
-      if (camfi_source != nullptr) {
-        const CamfiStats stats = camfi_source->stats();
-        std::printf("camfi: %d stored, %d replayed from the journal; %d events (%d duplicate), "
-                    "%d found by listing; %d rejected downloads; %d sessions, %d ended by "
-                    "errors\n",
-                    stats.stored, stats.replayed, stats.events, stats.duplicate_events,
-                    stats.found_by_listing, stats.download_failures, stats.sessions,
-                    stats.session_failures);
-        std::printf("camfi: %d re-fetched to compare, %d new shots at a known path; %d failed "
-                    "and %d truncated listings; %d oversized bodies, %d timed-out downloads, "
-                    "%d rejected event packets; %d store failures (disk full?); journal: %d "
-                    "records skipped, %d torn\n",
-                    stats.rechecked, stats.reused_paths, stats.listing_failures,
-                    stats.truncated_listings, stats.oversized, stats.timed_out_downloads,
-                    stats.rejected_packets, stats.store_failures, stats.journal_skipped,
-                    stats.journal_torn);
+      for (const LiveInput& input : inputs) {
+        if (input.camfi != nullptr) {
+          PrintCamfiStats(several ? "camfi " + input.tag : "camfi", input.camfi->stats());
+        }
       }
     } catch (const std::invalid_argument& e) {
       std::cerr << "flysfm live: " << e.what() << "\n";

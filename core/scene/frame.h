@@ -20,6 +20,10 @@ struct Frame {
   double timestamp = 0;
   // When the image reached us; the live delay is measured from here.
   std::chrono::steady_clock::time_point arrival;
+  // The tag of the photographer's source it came from when several sources
+  // feed one run (io/sources/merged_source.h); empty for a single source.
+  // The engine carries it to nothing: the run loop reports it.
+  std::string source;
 };
 
 }  // namespace flysfm

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <map>
 #include <memory>
+#include <set>
 #include <stdexcept>
 #include <unordered_set>
 
@@ -76,6 +77,9 @@ class RunState {
   void ShowEnd(const std::string& step, const std::string& detail, double elapsed_s,
                std::optional<double> remaining_s);
   void PrintClosingLines() const;
+  // The tag of the source image `name` came from; empty for a single source.
+  std::string SourceOf(const std::string& name) const;
+  std::vector<SourceCounts> CountBySource() const;
 
   const RunLoop::Options& options_;
   ViewServer* view_;
@@ -94,6 +98,10 @@ class RunState {
   std::vector<ViewLine> view_lines_;
   // A pending image's later result is timed from its own arrival.
   std::map<std::string, Clock::time_point> arrivals_;
+  // Image name -> its source's tag, and frames taken per tag, as frames
+  // arrive with one.
+  std::map<std::string, std::string> sources_;
+  std::map<std::string, int> images_in_by_source_;
   std::vector<double> registration_delays_ms_;
   double engine_ms_ = 0;
   bool refinement_failed_ = false;
@@ -141,8 +149,9 @@ void RunState::Report(const std::vector<ImageResult>& results, RunLoop::Origin o
         options_.live ? reported.delay_ms : std::optional<double>();
     if (progress_) progress_->Done();
     if (options_.print) PrintLine(options_.output, summary_.counts.images_in, result, shown_delay);
-    if (view_) view_lines_.push_back(MakeViewLine(result, shown_delay));
-    if (writer_) writer_->Log(result);
+    const std::string source = SourceOf(result.name);
+    if (view_) view_lines_.push_back(MakeViewLine(result, shown_delay, source));
+    if (writer_) writer_->Log(result, source);
     logged_.push_back(result);
     summary_.results.push_back(std::move(reported));
   }
@@ -180,6 +189,7 @@ bool RunState::WriteOutputs(bool final) {
     counts.in_model = filtered_->num_in_model();
   }
   counts.refinement = engine_->refinement_totals();
+  counts.sources = CountBySource();
   if (!writer_) return true;
   try {
     if (!writer_->MayReplaceOutputs(engine_->reconstruction(), final)) return true;
@@ -204,6 +214,10 @@ void RunState::ProcessImage(PreparedFrame frame) {
   ++summary_.counts.images_in;
   const std::string name = frame.frame.name;
   arrivals_[name] = frame.frame.arrival;
+  if (!frame.frame.source.empty()) {
+    sources_[name] = frame.frame.source;
+    ++images_in_by_source_[frame.frame.source];
+  }
   if (view_) view_->SetLatestShot(frame.image);
   if (hooks_.on_arrival) hooks_.on_arrival(*engine_, frame);
   if (quarantine_) quarantine_->BeginEngine(name);
@@ -237,6 +251,47 @@ void RunState::ProcessImage(PreparedFrame frame) {
   PublishView();
   RefreshOutputs();
   if (hooks_.after_image) hooks_.after_image(*engine_);
+}
+
+std::string RunState::SourceOf(const std::string& name) const {
+  const auto known = sources_.find(name);
+  if (known != sources_.end()) return known->second;
+  // An image of an earlier run on this folder: a merged name is `<tag>/...`,
+  // and a tag holds no '/'.
+  for (const std::string& tag : options_.sources) {
+    if (name.size() > tag.size() && name.compare(0, tag.size(), tag) == 0 &&
+        name[tag.size()] == '/') {
+      return tag;
+    }
+  }
+  return {};
+}
+
+std::vector<SourceCounts> RunState::CountBySource() const {
+  std::vector<SourceCounts> counts;
+  std::map<std::string, std::size_t> index;
+  const auto of = [&](const std::string& tag) -> SourceCounts* {
+    if (tag.empty()) return nullptr;
+    const auto [it, added] = index.emplace(tag, counts.size());
+    if (added) counts.push_back(SourceCounts{tag});
+    return &counts[it->second];
+  };
+  // Every source given, in its order, then any other a frame named.
+  for (const std::string& tag : options_.sources) of(tag);
+  for (const auto& [tag, images_in] : images_in_by_source_) of(tag)->images_in = images_in;
+  for (const image_t image_id : engine_->reconstruction().RegisteredImageIds()) {
+    if (SourceCounts* source = of(SourceOf(engine_->reconstruction().image(image_id).name))) {
+      ++source->registered;
+    }
+  }
+  for (const ImageResult& result : logged_) {
+    if (result.status != ImageStatus::kRejected) continue;
+    if (SourceCounts* source = of(SourceOf(result.name))) ++source->rejected;
+  }
+  for (const std::string& name : engine_->PendingImageNames()) {
+    if (SourceCounts* source = of(SourceOf(name))) ++source->pending;
+  }
+  return counts;
 }
 
 void RunState::RefineWhileIdle(const PreparedFrameSource& prepared) {
@@ -407,6 +462,12 @@ void RunLoop::Options::Check() const {
   if (resume && out.empty()) throw std::invalid_argument("resume needs an output folder");
   if (print && output == nullptr) throw std::invalid_argument("print needs an output");
   if (!(progress_interval_s >= 0)) throw std::invalid_argument("progress_interval_s must be >= 0");
+  std::set<std::string> tags;
+  for (const std::string& tag : sources) {
+    if (tag.empty() || tag.find('/') != std::string::npos || !tags.insert(tag).second) {
+      throw std::invalid_argument("sources must be distinct non-empty tags without '/'");
+    }
+  }
 }
 
 RunLoop::RunLoop(Options options, ViewServer* view) : options_(std::move(options)), view_(view) {

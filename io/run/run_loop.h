@@ -83,6 +83,11 @@ class RunLoop {
     bool live = false;
     // Input folder entries the listing could not examine, for summary.json.
     int skipped_entries = 0;
+    // The tags of the sources a MergedSource (io/sources/merged_source.h)
+    // merges, in its inputs' order; empty for a single source. Each gets
+    // its counts in summary.json, even with no image yet, and an image a
+    // resumed model holds is told its source by its name's `<tag>/`.
+    std::vector<std::string> sources;
 
     // Throws std::invalid_argument naming the bad option.
     void Check() const;

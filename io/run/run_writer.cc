@@ -117,10 +117,12 @@ bool RunWriter::MayReplaceOutputs(const Reconstruction& reconstruction, bool fin
   return true;
 }
 
-void RunWriter::Log(const ImageResult& result) {
+void RunWriter::Log(const ImageResult& result, const std::string& source) {
+  nlohmann::json record = ToJson(result);
+  if (!source.empty()) record["source"] = source;
   // One whole line per write, flushed: a reader tailing the log never sees
   // half a record, and a crash loses none that was reported.
-  log_ << ToJson(result).dump() + "\n" << std::flush;
+  log_ << record.dump() + "\n" << std::flush;
 }
 
 void RunWriter::WriteModel(const Reconstruction& reconstruction) {
@@ -147,7 +149,7 @@ void RunWriter::WriteSummary(const Reconstruction& reconstruction,
                        {"params", camera.params},
                        {"readout_time_s", camera.readout_time}});
   }
-  const nlohmann::json summary = {
+  nlohmann::json summary = {
       {"images_in", counts.images_in},
       {"registered", reconstruction.NumRegisteredImages()},
       {"rejected", rejected},
@@ -167,6 +169,17 @@ void RunWriter::WriteSummary(const Reconstruction& reconstruction,
       {"mean_track_length", reconstruction.MeanTrackLength()},
       {"wall_seconds", wall_seconds},
       {"stage_ms", StageTimeStatistics(results)}};
+  if (!counts.sources.empty()) {
+    nlohmann::json sources = nlohmann::json::array();
+    for (const SourceCounts& source : counts.sources) {
+      sources.push_back({{"tag", source.tag},
+                         {"images_in", source.images_in},
+                         {"registered", source.registered},
+                         {"rejected", source.rejected},
+                         {"pending", source.pending}});
+    }
+    summary["sources"] = sources;
+  }
   WriteFileAtomically(dir_ / "summary.json",
                       [&](std::ostream& out) { out << summary.dump(2) << "\n"; });
 }

@@ -27,6 +27,18 @@ nlohmann::json ToJson(const ImageResult& result);
 // summary.json's "refinement".
 nlohmann::json ToJson(const Engine::RefinementTotals& totals);
 
+// One photographer's share of a run fed by several sources
+// (io/sources/merged_source.h): summary.json's "sources". Each count is the
+// run's own count restricted to the source's images, so that they add up to
+// it over the sources.
+struct SourceCounts {
+  std::string tag;
+  int images_in = 0;   // frames of this source the engine took
+  int registered = 0;  // its images registered in the model
+  int rejected = 0;    // its rejected results
+  int pending = 0;     // its images waiting
+};
+
 // What summary.json counts besides the engine's results.
 struct RunCounts {
   int images_in = 0;        // frames the source handed on
@@ -38,6 +50,8 @@ struct RunCounts {
   int in_model = 0;         // frames skipped as the resumed model held them
   double checkpoint_ms = 0; // writing the checkpoint, in all
   Engine::RefinementTotals refinement;
+  // Per source, in the sources' order; empty for a single source.
+  std::vector<SourceCounts> sources;
 };
 
 class RunWriter {
@@ -47,7 +61,9 @@ class RunWriter {
   // summary.json).
   explicit RunWriter(const std::filesystem::path& out_dir);
 
-  void Log(const ImageResult& result);
+  // `source`: the tag of the source the image came from (a "source" field
+  // on its record); empty for a single source, and then no field.
+  void Log(const ImageResult& result, const std::string& source = "");
   // Whether the model files and summary may be written now: false while
   // `reconstruction` has fewer registered images than a previous run's
   // model in the folder. `final` (the run's last write) makes it true, the

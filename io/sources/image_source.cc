@@ -52,6 +52,17 @@ std::vector<Frame> ListBatchInput(const fs::path& path, std::vector<std::string>
   return fs::exists(path / "rgb.txt") ? ListTumSequence(path) : ListImageFolder(path, skipped);
 }
 
+std::optional<double> ReadCaptureTime(const Frame& frame) {
+  if (!frame.bytes.empty()) return ReadExifCaptureTime(frame.bytes.data(), frame.bytes.size());
+  // An APP1 segment is at most 64 KiB, after SOI and perhaps a JFIF APP0.
+  std::vector<std::uint8_t> head(128 * 1024);
+  std::ifstream file(frame.path, std::ios::binary);
+  if (!file) return std::nullopt;
+  file.read(reinterpret_cast<char*>(head.data()), std::streamsize(head.size()));
+  head.resize(std::size_t(file.gcount()));
+  return ReadExifCaptureTime(head.data(), head.size());
+}
+
 void ShuffleFrames(std::vector<Frame>* frames, std::uint32_t seed) {
   std::mt19937 rng(seed);
   std::shuffle(frames->begin(), frames->end(), rng);

@@ -43,6 +43,11 @@ std::vector<Frame> ListTumSequence(const std::filesystem::path& dir);
 // A TUM sequence when `path` holds rgb.txt, else an image folder.
 std::vector<Frame> ListBatchInput(const std::filesystem::path& path,
                                   std::vector<std::string>* skipped = nullptr);
+// When the frame's shot was taken, from its EXIF (ReadExifCaptureTime: the
+// camera's clock, in seconds), read from its bytes or from the head of its
+// file (EXIF sits in the first 64 KiB of a JPEG); nullopt without one or
+// when the file cannot be read.
+std::optional<double> ReadCaptureTime(const Frame& frame);
 // A reproducible random order: any capture order must work.
 void ShuffleFrames(std::vector<Frame>* frames, std::uint32_t seed);
 

@@ -146,6 +146,8 @@ void AppendLine(const ViewLine& line, std::string* out) {
   } else {
     *out += "null";
   }
+  *out += ",\"source\":";
+  AppendString(line.source, out);
   *out += '}';
 }
 
@@ -174,8 +176,10 @@ void AppendCounts(int num_images, int num_points, std::string* out) {
 
 }  // namespace
 
-ViewLine MakeViewLine(const ImageResult& result, std::optional<double> delay_ms) {
+ViewLine MakeViewLine(const ImageResult& result, std::optional<double> delay_ms,
+                      const std::string& source) {
   ViewLine line;
+  line.source = source;
   line.name = result.name;
   line.status = ImageStatusName(result.status);
   line.reason = result.reason;

@@ -49,8 +49,11 @@ struct ViewLine {
   int new_points = 0;
   double ms = 0;
   std::optional<double> delay_ms;  // from the shot's arrival (live runs)
+  // The tag of the photographer's source (several sources); else empty.
+  std::string source;
 };
-ViewLine MakeViewLine(const ImageResult& result, std::optional<double> delay_ms);
+ViewLine MakeViewLine(const ImageResult& result, std::optional<double> delay_ms,
+                      const std::string& source = "");
 
 // What one step of the engine changed, as the page needs it.
 struct ViewUpdate {

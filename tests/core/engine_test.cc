@@ -91,6 +91,19 @@ TEST_CASE("The engine registers a rendered capture with accurate poses") {
   for (const ImageResult& result : run.All()) CHECK_FALSE(result.global_ba);
 }
 
+TEST_CASE("Prepare keeps what the frame says of itself: name, times, source tag") {
+  Frame frame = Capture().frames.front();
+  frame.timestamp = 12.5;
+  frame.arrival = std::chrono::steady_clock::now();
+  frame.source = "alice";
+  const PreparedFrame prepared = Engine::Prepare(frame, Engine::Options());
+  CHECK(prepared.frame.name == frame.name);
+  CHECK(prepared.frame.timestamp == 12.5);
+  CHECK(prepared.frame.arrival == frame.arrival);
+  CHECK(prepared.frame.source == "alice");
+  CHECK(prepared.frame.bytes.empty());
+}
+
 TEST_CASE("Image results: stage times add up, registrations carry their work, counts grow") {
   Engine engine(Engine::Options(), Capture().camera);
   int model_images = 0;

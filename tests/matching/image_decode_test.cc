@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <ctime>
 #include <filesystem>
 #include <fstream>
 #include <random>
@@ -383,6 +384,53 @@ TEST_CASE("ReadExif reads a whole JPEG and its APP1 payload alone alike") {
   CHECK_FALSE(ReadExif(payload.data(), 10, 60, 40).focal_length_px);
   CHECK_FALSE(ReadExif(nullptr, 0, 60, 40).focal_length_px);
   CHECK_FALSE(ReadExif(payload.data(), payload.size(), 0, 0).focal_length_px);
+}
+
+// Seconds from 1970 of a UTC calendar time, by the C library (timegm), as
+// the ground truth of the EXIF reader's own calendar arithmetic.
+double UtcSeconds(int year, int month, int day, int hour, int minute, int second) {
+  std::tm time{};
+  time.tm_year = year - 1900;
+  time.tm_mon = month - 1;
+  time.tm_mday = day;
+  time.tm_hour = hour;
+  time.tm_min = minute;
+  time.tm_sec = second;
+  return double(timegm(&time));
+}
+
+TEST_CASE("ReadExifCaptureTime reads DateTimeOriginal with its sub-seconds") {
+  const cv::Mat image = MakeTexture(60, 40, 3);
+  const auto time_of = [&](std::vector<std::pair<ExifTag, std::string>> texts) {
+    testing::ExifTags tags;
+    tags.texts = std::move(texts);
+    const std::vector<std::uint8_t> jpeg = testing::JpegWithExif(image, tags);
+    return ReadExifCaptureTime(jpeg.data(), jpeg.size());
+  };
+  const std::optional<double> whole =
+      time_of({{EXIF_TAG_DATE_TIME_ORIGINAL, "2024:05:17 10:30:15"}});
+  REQUIRE(whole);
+  CHECK(*whole == UtcSeconds(2024, 5, 17, 10, 30, 15));
+  // Before 1970 and across a leap day, too.
+  CHECK(time_of({{EXIF_TAG_DATE_TIME_ORIGINAL, "1969:12:31 23:59:59"}}) ==
+        std::optional<double>(-1.0));
+  CHECK(time_of({{EXIF_TAG_DATE_TIME_ORIGINAL, "2024:03:01 00:00:00"}}) ==
+        std::optional<double>(UtcSeconds(2024, 3, 1, 0, 0, 0)));
+  const std::optional<double> fine = time_of({{EXIF_TAG_DATE_TIME_ORIGINAL, "2024:05:17 10:30:15"},
+                                              {EXIF_TAG_SUB_SEC_TIME_ORIGINAL, "05"}});
+  REQUIRE(fine);
+  CHECK(*fine - *whole == Approx(0.05).margin(1e-6));
+  // Two shots in the same second keep their order through the sub-seconds.
+  CHECK(*time_of({{EXIF_TAG_DATE_TIME_ORIGINAL, "2024:05:17 10:30:15"},
+                  {EXIF_TAG_SUB_SEC_TIME_ORIGINAL, "9"}}) > *fine);
+  // No time: no tag, an unset clock, a malformed date, no EXIF at all.
+  CHECK_FALSE(time_of({{EXIF_TAG_MAKE, "Canon"}}));
+  CHECK_FALSE(time_of({{EXIF_TAG_DATE_TIME_ORIGINAL, "0000:00:00 00:00:00"}}));
+  CHECK_FALSE(time_of({{EXIF_TAG_DATE_TIME_ORIGINAL, "2024:13:01 00:00:00"}}));
+  CHECK_FALSE(time_of({{EXIF_TAG_DATE_TIME_ORIGINAL, "yesterday"}}));
+  const std::vector<std::uint8_t> plain = Encode(image, ".jpg");
+  CHECK_FALSE(ReadExifCaptureTime(plain.data(), plain.size()));
+  CHECK_FALSE(ReadExifCaptureTime(nullptr, 0));
 }
 
 }  // namespace

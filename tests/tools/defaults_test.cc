@@ -67,8 +67,8 @@ TEST_CASE("option defaults: keys are unique, values and help are not empty") {
     CHECK(!entry.help.empty());
   }
   // Each root the page promises has its table.
-  for (const char* root : {"engine", "checkpoint", "camfi", "camfi_emulator", "watch", "view",
-                           "retrieval_training", "synthetic_capture"}) {
+  for (const char* root : {"engine", "checkpoint", "camfi", "camfi_emulator", "watch",
+                           "merged_source", "view", "retrieval_training", "synthetic_capture"}) {
     INFO(root);
     CHECK(std::any_of(keys.begin(), keys.end(), [&](const std::string& key) {
       return key.rfind(std::string(root) + ".", 0) == 0;

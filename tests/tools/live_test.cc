@@ -1,5 +1,6 @@
 // `flysfm live --camfi` as a process against the emulator: a clean stop on
-// SIGINT, and a SIGKILL followed by a restart on the same --out.
+// SIGINT, and a SIGKILL followed by a restart on the same --out; the same
+// with watched folders, one and several.
 
 #include <algorithm>
 #include <regex>
@@ -151,6 +152,75 @@ TEST_CASE("live --watch: after SIGKILL a restart resumes, re-feeding in arrival 
   CHECK(std::equal(names.begin(), names.end(), arrival.end() - std::ptrdiff_t(names.size())));
   // The log goes on: the first run's records, then the second's.
   CHECK(testing::LinesStartingWith(out / "log.jsonl", "{").size() >= 3);
+}
+
+TEST_CASE("live --watch A --watch B: each photographer's images tagged, stored apart, resumed") {
+  const std::filesystem::path dir = testing::MakeTempDir("live_sources");
+  const std::vector<std::filesystem::path> images = testing::WriteTestJpegs(dir / "shots", 5);
+  const std::filesystem::path alice = dir / "alice";
+  const std::filesystem::path bob = dir / "bob";
+  const std::filesystem::path out = dir / "out";
+  std::filesystem::create_directories(alice);
+  std::filesystem::create_directories(bob / "sub");
+  const std::vector<std::string> args = {"live",  "--watch", alice.string(), "--watch",
+                                         bob.string(), "--watch-stable-seconds", "0.2",
+                                         "--out", out.string()};
+  const pid_t first = testing::SpawnFlysfm(args, dir / "first.txt");
+  // Both shoot an x.jpg: two images.
+  const std::vector<std::pair<std::filesystem::path, std::string>> drops = {
+      {alice / "x.jpg", "alice/x.jpg"},
+      {bob / "x.jpg", "bob/x.jpg"},
+      {alice / "y.jpg", "alice/y.jpg"},
+      {bob / "sub" / "z.jpg", "bob/sub/z.jpg"}};
+  for (std::size_t i = 0; i < drops.size(); ++i) {
+    std::filesystem::copy_file(images[i], drops[i].first);
+  }
+  REQUIRE(testing::WaitUntil([&] { return LoggedNames(out).size() >= drops.size(); }, 30));
+  ::kill(first, SIGINT);
+  REQUIRE(testing::WaitForExit(first, 20) == 0);
+
+  std::set<std::string> expected;
+  for (const auto& [file, name] : drops) expected.insert(name);
+  CHECK(LoggedNames(out) == expected);
+  for (const std::string& line : testing::LinesStartingWith(out / "log.jsonl", "{")) {
+    const nlohmann::json record = nlohmann::json::parse(line);
+    const std::string name = record["name"];
+    CHECK(record["source"] == name.substr(0, name.find('/')));
+  }
+  const nlohmann::json summary = nlohmann::json::parse(testing::ReadText(out / "summary.json"));
+  REQUIRE(summary["sources"].size() == 2);
+  CHECK(summary["sources"][0]["tag"] == "alice");
+  CHECK(summary["sources"][0]["images_in"] == 2);
+  CHECK(summary["sources"][1]["tag"] == "bob");
+  CHECK(summary["sources"][1]["images_in"] == 2);
+  int registered = 0, rejected = 0, pending = 0;
+  for (const nlohmann::json& source : summary["sources"]) {
+    registered += source["registered"].get<int>();
+    rejected += source["rejected"].get<int>();
+    pending += source["pending"].get<int>();
+  }
+  CHECK(registered == summary["registered"]);
+  CHECK(rejected == summary["rejected"]);
+  CHECK(pending == int(summary["pending"].size()));
+  // Each folder's own state, with its own files only.
+  for (const char* tag : {"alice", "bob"}) {
+    const std::filesystem::path state = out / "sources" / tag / "watched.tsv";
+    CHECK(testing::LinesStartingWith(state, "").size() == 2);
+  }
+  CHECK_FALSE(std::filesystem::exists(out / "watched.tsv"));
+
+  // Shot while the program was down; the restart re-feeds both folders'
+  // files from their states, skips them (the model holds them) and takes
+  // the new one only.
+  std::filesystem::copy_file(images[4], bob / "w.jpg");
+  std::vector<std::string> restart = args;
+  restart.insert(restart.end(), {"--max-images", "5"});
+  const pid_t second = testing::SpawnFlysfm(restart, dir / "second.txt");
+  REQUIRE(testing::WaitForExit(second, 30) == 0);
+  CHECK_THAT(testing::ReadText(dir / "second.txt"), Catch::Contains("resumed: 4 images"));
+  std::vector<std::string> names = ResultNames(dir / "second.txt");
+  names.erase(std::unique(names.begin(), names.end()), names.end());
+  CHECK(names == std::vector<std::string>{"bob/w.jpg"});
 }
 
 }  // namespace

@@ -371,6 +371,8 @@
     if (line.reason) parts.push(line.reason);
     $('line').textContent = parts.join('  ');
     $('line').className = line.status;
+    // Several photographers: the name starts with the tag; the tooltip says so.
+    $('line').title = line.source ? 'from source ' + line.source : '';
   }
 
   function showThumbnail() {

@@ -22,6 +22,7 @@
 
 #include "io/run/run_loop.h"
 #include "io/sources/journal_file.h"
+#include "io/sources/merged_source.h"
 #include "io/synthetic/synthetic_source.h"
 #include "tests/io/sources/source_fixture.h"
 #include "tests/testing/frame_files.h"
@@ -311,6 +312,80 @@ TEST_CASE("Resuming continues the checkpointed model and extends a finished one"
   CHECK_THROWS_WITH(RunLoop(options).Run(&source, &engine),
                     Catch::Contains("cannot resume from") && Catch::Contains("move that folder"));
   CHECK(testing::ReadText(out / "state" / "snapshot.bin") == "junk");
+}
+
+TEST_CASE("Merged sources' <tag>/ names go through the log, summary, quarantine and resume") {
+  const fs::path dir = testing::MakeTempDir("run_engine_sources");
+  Camera camera;
+  const std::vector<Frame> frames = RenderedFolder(dir / "images", &camera);
+  // Two photographers: every other view each.
+  std::vector<Frame> alice, bob;
+  for (std::size_t i = 0; i < frames.size(); ++i) (i % 2 == 0 ? alice : bob).push_back(frames[i]);
+  const std::string poison = "bob/" + bob.back().name;
+  const fs::path out = dir / "out";
+  RunLoop::Options options = OptionsFor(out);
+  options.sources = {"alice", "bob"};
+  RunLoop::Hooks hooks;
+  hooks.add_image = [&](Engine* engine, PreparedFrame frame) {
+    if (frame.frame.name == poison) throw std::runtime_error("bad shot");
+    return engine->AddImage(std::move(frame));
+  };
+  const auto run = [&] {
+    FrameListSource a(alice), b(bob);
+    MergedSource merged({{"alice", &a}, {"bob", &b}}, {MergedSourceOptions::Order::kRoundRobin});
+    Engine engine(Engine::Options(), camera);
+    REQUIRE(RunLoop(options).Run(&merged, &engine, hooks).exit_code == 0);
+    return Summary(out);
+  };
+  nlohmann::json summary = run();
+  // Every record names its source, and its name starts with the tag.
+  std::set<std::string> names;
+  for (const std::string& line : testing::LinesStartingWith(out / "log.jsonl", "{")) {
+    const nlohmann::json record = nlohmann::json::parse(line);
+    const std::string name = record["name"];
+    names.insert(name);
+    CHECK(name.rfind(record["source"].get<std::string>() + "/", 0) == 0);
+  }
+  CHECK(names.size() == frames.size());
+  CHECK(names.count(poison) == 1);
+  CHECK(summary["engine_errors"] == 1);
+  // Per source, counts adding up to the run's: every view but the poisoned
+  // one registers (the walk registers whole, "Resuming ..." above).
+  const auto check_sources = [&](const nlohmann::json& summary, int images_in) {
+    const nlohmann::json& sources = summary["sources"];
+    REQUIRE(sources.size() == 2);
+    CHECK(sources[0]["tag"] == "alice");
+    CHECK(sources[1]["tag"] == "bob");
+    CHECK(sources[0]["registered"] == alice.size());
+    CHECK(sources[1]["registered"] == bob.size() - 1);
+    int sum_in = 0, sum_registered = 0, sum_rejected = 0, sum_pending = 0;
+    for (const nlohmann::json& source : sources) {
+      sum_in += source["images_in"].get<int>();
+      sum_registered += source["registered"].get<int>();
+      sum_rejected += source["rejected"].get<int>();
+      sum_pending += source["pending"].get<int>();
+    }
+    CHECK(sum_in == images_in);
+    CHECK(sum_in == summary["images_in"]);
+    CHECK(sum_registered == summary["registered"]);
+    CHECK(sum_rejected == summary["rejected"]);
+    CHECK(sum_pending == summary["pending"].size());
+  };
+  check_sources(summary, int(frames.size()));
+  CHECK(summary["sources"][1]["rejected"] == 1);
+  const std::vector<std::string> records =
+      testing::LinesStartingWith(out / "quarantine.tsv", "failed\t");
+  REQUIRE(records.size() == 1);
+  CHECK(records[0].rfind("failed\t" + poison + "\t", 0) == 0);
+
+  // The restart resumes the model by those names: nothing is processed
+  // again, the poisoned one stays out, and the counts come from the names.
+  options.resume = true;
+  summary = run();
+  CHECK(summary["resumed_images"] == frames.size() - 1);
+  CHECK(summary["skipped_in_model"] == frames.size() - 1);
+  CHECK(summary["quarantined"] == 1);
+  check_sources(summary, 0);
 }
 
 TEST_CASE("Paced images are refined between them, and the summary counts it, "

@@ -108,6 +108,40 @@ TEST_CASE("A log line names the focal length the initial pairs corrected, only w
   CHECK(ToJson(result)["focal_length_from_pairs"].get<double>() == 2736.5);
 }
 
+TEST_CASE("A log record names its source, the summary counts each source") {
+  const fs::path dir = testing::MakeTempDir("run_writer_sources");
+  {
+    RunWriter writer(dir);
+    ImageResult result;
+    result.name = "alice/IMG_0001.JPG";
+    result.status = ImageStatus::kRejected;
+    writer.Log(result, "alice");
+    result.name = "IMG_0002.JPG";
+    writer.Log(result);
+    RunCounts counts;
+    counts.images_in = 2;
+    counts.sources = {{"alice", 2, 0, 1, 1}, {"bob", 0, 0, 0, 0}};
+    writer.WriteSummary(Reconstruction(), {result, result}, counts, {"alice/IMG_0003.JPG"}, 1.0);
+  }
+  std::ifstream log(dir / "log.jsonl");
+  std::string first, second;
+  std::getline(log, first);
+  std::getline(log, second);
+  CHECK(nlohmann::json::parse(first)["source"] == "alice");
+  CHECK_FALSE(nlohmann::json::parse(second).contains("source"));
+  std::ifstream summary(dir / "summary.json");
+  const nlohmann::json json = nlohmann::json::parse(summary);
+  REQUIRE(json["sources"].size() == 2);
+  CHECK(json["sources"][0] ==
+        nlohmann::json({{"tag", "alice"}, {"images_in", 2}, {"registered", 0}, {"rejected", 1},
+                        {"pending", 1}}));
+  CHECK(json["sources"][1]["tag"] == "bob");
+  // A single source's summary has no "sources".
+  RunWriter(dir).WriteSummary(Reconstruction(), {}, RunCounts(), {}, 1.0);
+  std::ifstream single(dir / "summary.json");
+  CHECK_FALSE(nlohmann::json::parse(single).contains("sources"));
+}
+
 TEST_CASE("The run's sparse/ model reads back, text and binary, as the engine's model") {
   const WrittenRun& run = Written();
   REQUIRE(run.model.NumRegisteredImages() >= 6);

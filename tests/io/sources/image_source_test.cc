@@ -3,7 +3,10 @@
 #include <fstream>
 
 #include <catch2/catch.hpp>
+#include <opencv2/core.hpp>
 
+#include "matching/image_decode.h"
+#include "tests/testing/exif_jpeg.h"
 #include "tests/testing/temp_dir.h"
 
 namespace flysfm {
@@ -59,6 +62,35 @@ TEST_CASE("A TUM sequence lists rgb.txt in order with its timestamps") {
   CHECK(frames[1].path == dir / "rgb/1305031102.175304.png");
   std::ofstream(dir / "rgb.txt") << "1305031102.211214\n";
   CHECK_THROWS_WITH(ListTumSequence(dir), Catch::Matchers::Contains("rgb.txt:1"));
+}
+
+TEST_CASE("A frame's capture time comes from its file's EXIF or its bytes") {
+  const fs::path dir = testing::MakeTempDir("image_source_time");
+  testing::ExifTags tags;
+  tags.texts = {{EXIF_TAG_DATE_TIME_ORIGINAL, "2024:05:17 10:30:15"},
+                {EXIF_TAG_SUB_SEC_TIME_ORIGINAL, "5"}};
+  // A large image, so that the file holds far more than the head read.
+  cv::Mat image(1200, 1600, CV_8UC3);
+  cv::randu(image, 0, 256);
+  const std::vector<std::uint8_t> jpeg = testing::JpegWithExif(image, tags);
+  REQUIRE(jpeg.size() > 256 * 1024);
+  std::ofstream(dir / "a.jpg", std::ios::binary)
+      .write(reinterpret_cast<const char*>(jpeg.data()), std::streamsize(jpeg.size()));
+  Frame from_file;
+  from_file.path = dir / "a.jpg";
+  Frame from_bytes;
+  from_bytes.bytes = jpeg;
+  const std::optional<double> expected = ReadExifCaptureTime(jpeg.data(), jpeg.size());
+  REQUIRE(expected);
+  CHECK(*expected == Approx(1715941815.5));  // 2024-05-17 10:30:15.5 as seconds from 1970
+  CHECK(ReadCaptureTime(from_file) == expected);
+  CHECK(ReadCaptureTime(from_bytes) == expected);
+  Frame missing;
+  missing.path = dir / "gone.jpg";
+  CHECK_FALSE(ReadCaptureTime(missing));
+  Frame plain;
+  plain.bytes = testing::WithoutExif(jpeg);
+  CHECK_FALSE(ReadCaptureTime(plain));
 }
 
 TEST_CASE("Shuffling is a reproducible permutation") {

@@ -107,6 +107,17 @@ TEST_CASE("Pending and rejected lists follow the per-image lines") {
   CHECK_FALSE(view.Apply(update));
 }
 
+TEST_CASE("A line carries the tag of its image's source") {
+  ImageResult result;
+  result.name = "alice/IMG_0001.JPG";
+  result.status = ImageStatus::kRegistered;
+  ViewUpdate update;
+  update.lines = {MakeViewLine(result, std::nullopt, "alice")};
+  const nlohmann::json u = nlohmann::json::parse(UpdateMessage(update, nullptr));
+  CHECK(u["lines"][0]["source"] == "alice");
+  CHECK(u["lines"][0]["name"] == "alice/IMG_0001.JPG");
+}
+
 TEST_CASE("Messages are one line of valid JSON whatever the names and numbers") {
   ViewModel view;
   ViewUpdate update;
@@ -138,6 +149,7 @@ TEST_CASE("Messages are one line of valid JSON whatever the names and numbers") 
   CHECK(u["points"]["rgb"][0] == 255);
   CHECK(u["pending"].size() == 1);
   CHECK(u["counts"]["points"] == 2);
+  CHECK(u["lines"][0]["source"] == "");
   const nlohmann::json m = nlohmann::json::parse(model_text);
   CHECK(m["type"] == "model");
   CHECK(m["finished"] == true);
