@@ -63,15 +63,14 @@ RunLoop::Options OptionsFor(const fs::path& out) {
   return options;
 }
 
-int Run(const fs::path& images, const fs::path& out, const RunLoop::Hooks& hooks,
-        RunLoop::Options options) {
+int Run(const fs::path& images, const RunLoop::Hooks& hooks, RunLoop::Options options) {
   FrameListSource source(ListImageFolder(images));
   Engine engine{Engine::Options()};
   return RunLoop(std::move(options)).Run(&source, &engine, hooks).exit_code;
 }
 
 int Run(const fs::path& images, const fs::path& out, const RunLoop::Hooks& hooks) {
-  return Run(images, out, hooks, OptionsFor(out));
+  return Run(images, hooks, OptionsFor(out));
 }
 
 nlohmann::json Summary(const fs::path& out) {
@@ -194,7 +193,7 @@ TEST_CASE("After a process crashed on one image, the restart skips that image") 
   seen.clear();
   RunLoop::Options retry = OptionsFor(out);
   retry.retry_quarantined = true;
-  CHECK(Run(dir / "images", out, options, retry) == 0);
+  CHECK(Run(dir / "images", options, retry) == 0);
   CHECK(seen.size() == std::size_t(kImages));
 }
 
@@ -369,7 +368,7 @@ TEST_CASE("Merged sources' <tag>/ names go through the log, summary, quarantine 
     CHECK(sum_in == summary["images_in"]);
     CHECK(sum_registered == summary["registered"]);
     CHECK(sum_rejected == summary["rejected"]);
-    CHECK(sum_pending == summary["pending"].size());
+    CHECK(std::size_t(sum_pending) == summary["pending"].size());
   };
   check_sources(summary, int(frames.size()));
   CHECK(summary["sources"][1]["rejected"] == 1);
