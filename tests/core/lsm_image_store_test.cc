@@ -213,6 +213,27 @@ TEST_CASE("Older images keep only their windows, within the budget, least recent
 }  // namespace flysfm
 
 namespace flysfm {
+namespace {
+
+// Every window of `ids` around `points`, at every level, is the same pixels
+// in both stores.
+void CheckSameWindows(const std::vector<image_t>& ids, const std::vector<Eigen::Vector2d>& points,
+                      LsmImageStore* a, LsmImageStore* b) {
+  const LsmImageStore::Options options;
+  for (const image_t id : ids) {
+    for (int level = 0; level < options.num_pyramid_levels; ++level) {
+      for (const Eigen::Vector2d& point : points) {
+        const LsmImage wa = a->Window(id, level, point, options.coarse_template_reach_px);
+        const LsmImage wb = b->Window(id, level, point, options.coarse_template_reach_px);
+        REQUIRE(wa.width() == wb.width());
+        REQUIRE(wa.height() == wb.height());
+        CHECK(std::equal(wa.data(), wa.data() + wa.width() * wa.height(), wb.data()));
+      }
+    }
+  }
+}
+
+}  // namespace
 
 TEST_CASE("A store restored from its checkpoint gives the same windows and keeps the same order") {
   LsmImageStore::Options options;
@@ -238,17 +259,7 @@ TEST_CASE("A store restored from its checkpoint gives the same windows and keeps
       [&](image_t) { return points; });
   CHECK(restored.WholeImages() == original.WholeImages());
   CHECK(restored.window_bytes() == original.window_bytes());
-  for (const image_t id : {image_t(1), image_t(2), image_t(3)}) {
-    for (int level = 0; level < options.num_pyramid_levels; ++level) {
-      for (const Eigen::Vector2d& point : points) {
-        const LsmImage a = original.Window(id, level, point, options.coarse_template_reach_px);
-        const LsmImage b = restored.Window(id, level, point, options.coarse_template_reach_px);
-        REQUIRE(a.width() == b.width());
-        REQUIRE(a.height() == b.height());
-        CHECK(std::equal(a.data(), a.data() + a.width() * a.height(), b.data()));
-      }
-    }
-  }
+  CheckSameWindows({1, 2, 3}, points, &original, &restored);
 
   // Tiles not written are cut again from the image's pixels around its
   // points, when LSM first reads them; a restore decodes nothing before.
@@ -265,17 +276,7 @@ TEST_CASE("A store restored from its checkpoint gives the same windows and keeps
       [](image_t) { return std::unique_ptr<std::istream>(); }, [&](image_t) { return points; });
   const int num_whole = int(original.WholeImages().size());
   CHECK(num_decoded == num_whole);
-  for (const image_t id : {image_t(1), image_t(2)}) {
-    for (int level = 0; level < options.num_pyramid_levels; ++level) {
-      for (const Eigen::Vector2d& point : points) {
-        const LsmImage a = original.Window(id, level, point, options.coarse_template_reach_px);
-        const LsmImage b = deferred.Window(id, level, point, options.coarse_template_reach_px);
-        REQUIRE(a.width() == b.width());
-        REQUIRE(a.height() == b.height());
-        CHECK(std::equal(a.data(), a.data() + a.width() * a.height(), b.data()));
-      }
-    }
-  }
+  CheckSameWindows({1, 2}, points, &original, &deferred);
   CHECK(num_decoded == num_whole + 2);
   CHECK(deferred.window_bytes() == original.window_bytes());
 
