@@ -65,8 +65,11 @@ std::vector<StampedPose> TrajectoryOf(const Reconstruction& reconstruction) {
   std::vector<StampedPose> poses;
   for (const image_t id : reconstruction.RegisteredImageIds()) {
     const Image& image = reconstruction.image(id);
-    poses.push_back({TimestampFromImageName(image.name, double(poses.size())),
-                     Inverse(*image.cam_from_world)});
+    // Registration order is not capture order (the first pair's reference
+    // is whichever image initialised it): the capture time, when the
+    // source gave one, keeps a photo folder's stamps its shooting order.
+    const double fallback = image.capture_time ? *image.capture_time : double(poses.size());
+    poses.push_back({TimestampFromImageName(image.name, fallback), Inverse(*image.cam_from_world)});
   }
   return poses;
 }

@@ -29,7 +29,8 @@ void WriteTumTrajectory(const std::vector<StampedPose>& poses,
 double TimestampFromImageName(const std::string& name, double fallback);
 
 // The registered images' poses in registration order, timestamped by
-// TimestampFromImageName with the registration index as fallback.
+// TimestampFromImageName with the image's capture time as fallback (its
+// source's timestamp: a folder's index), else its registration index.
 std::vector<StampedPose> TrajectoryOf(const Reconstruction& reconstruction);
 
 // Pairs (index into `estimated`, index into `reference`) whose timestamps

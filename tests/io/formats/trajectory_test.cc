@@ -1,6 +1,7 @@
 #include "io/formats/trajectory.h"
 
 #include <fstream>
+#include <map>
 
 #include <catch2/catch.hpp>
 
@@ -39,6 +40,30 @@ TEST_CASE("Image names give timestamps") {
   CHECK(TimestampFromImageName("0007.jpg", -1) == 7);
   CHECK(TimestampFromImageName("IMG_0007.JPG", 3) == 3);
   CHECK(TimestampFromImageName("templeR0013.png", 12) == 12);
+}
+
+TEST_CASE("A trajectory is stamped by name, else by capture time, not by registration order") {
+  Reconstruction model;
+  const camera_t camera_id = model.AddCamera(Camera::FromFocal(CameraModelId::kPinhole, 500, 640, 480));
+  // As an initial pair registers them: the second photo first.
+  const image_t first = model.AddImage("photo_a.jpg", camera_id, {});
+  const image_t second = model.AddImage("photo_b.jpg", camera_id, {});
+  const image_t numbered = model.AddImage("0042.jpg", camera_id, {});
+  model.image(first).capture_time = 0;
+  model.image(second).capture_time = 1;
+  model.image(numbered).capture_time = 2;
+  Rigid3d pose;
+  pose.translation = Eigen::Vector3d(1, 0, 0);
+  model.RegisterImage(second, pose);
+  model.RegisterImage(first, Rigid3d());
+  model.RegisterImage(numbered, Rigid3d());
+  const std::vector<StampedPose> poses = TrajectoryOf(model);
+  REQUIRE(poses.size() == 3);
+  std::map<double, double> x_by_timestamp;
+  for (const StampedPose& stamped : poses) {
+    x_by_timestamp[stamped.timestamp] = stamped.world_from_cam.translation.x();
+  }
+  CHECK(x_by_timestamp == std::map<double, double>{{0, 0}, {1, -1}, {42, 0}});
 }
 
 TEST_CASE("Association pairs nearest timestamps within the tolerance, once each") {
