@@ -34,4 +34,40 @@ double Rms(const std::vector<double>& values) {
   return std::sqrt(sum / double(values.size()));
 }
 
+namespace {
+
+// 1-based ranks, ties given the mean of the ranks they span.
+std::vector<double> Ranks(const std::vector<double>& values) {
+  std::vector<std::size_t> order(values.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::sort(order.begin(), order.end(),
+            [&](std::size_t i, std::size_t j) { return values[i] < values[j]; });
+  std::vector<double> ranks(values.size());
+  for (std::size_t begin = 0; begin < order.size();) {
+    std::size_t end = begin + 1;
+    while (end < order.size() && values[order[end]] == values[order[begin]]) ++end;
+    const double rank = 0.5 * double(begin + 1 + end);  // mean of begin+1 .. end
+    for (std::size_t k = begin; k < end; ++k) ranks[order[k]] = rank;
+    begin = end;
+  }
+  return ranks;
+}
+
+}  // namespace
+
+std::optional<double> SpearmanCorrelation(const std::vector<double>& a,
+                                          const std::vector<double>& b) {
+  if (a.size() != b.size() || a.size() < 2) return std::nullopt;
+  const std::vector<double> ra = Ranks(a), rb = Ranks(b);
+  const double mean = 0.5 * double(a.size() + 1);
+  double ab = 0, aa = 0, bb = 0;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    ab += (ra[i] - mean) * (rb[i] - mean);
+    aa += (ra[i] - mean) * (ra[i] - mean);
+    bb += (rb[i] - mean) * (rb[i] - mean);
+  }
+  if (aa == 0 || bb == 0) return std::nullopt;
+  return ab / std::sqrt(aa * bb);
+}
+
 }  // namespace flysfm

@@ -4,6 +4,7 @@
 // the outputs, the benchmarks and the tests share, so that a "median" means
 // the same everywhere.
 
+#include <optional>
 #include <vector>
 
 namespace flysfm {
@@ -18,5 +19,14 @@ double Median(std::vector<double> values);
 double Mean(const std::vector<double>& values);
 // Root mean square; 0 for no values.
 double Rms(const std::vector<double>& values);
+
+// Spearman's rank correlation of paired samples: Pearson's correlation of
+// their ranks, tied values sharing the mean of their ranks. In [-1, 1]; it
+// asks only that one sample grow with the other, not linearly, which is what
+// "ranks the points by their error" means. nullopt for different lengths,
+// fewer than two pairs, or a sample whose values are all equal (no order to
+// compare).
+std::optional<double> SpearmanCorrelation(const std::vector<double>& a,
+                                          const std::vector<double>& b);
 
 }  // namespace flysfm

@@ -20,6 +20,7 @@
 #include "io/sources/watched_folder.h"
 #include "io/synthetic/synthetic_source.h"
 #include "io/view/view_server.h"
+#include "quality/quality_tracker.h"
 #include "retrieval/retrieval_model.h"
 
 namespace flysfm {
@@ -114,6 +115,14 @@ std::string Format(MergedSourceOptions::Order value) {
     case Order::kArrival: return "arrival";
     case Order::kCaptureTime: return "capture-time";
     case Order::kRoundRobin: return "round-robin";
+  }
+  return "?";
+}
+std::string Format(QualityTracker::Options::Sigma value) {
+  using Sigma = QualityTracker::Options::Sigma;
+  switch (value) {
+    case Sigma::kFixed: return "fixed";
+    case Sigma::kModelRms: return "model-rms";
   }
   return "?";
 }
@@ -566,6 +575,14 @@ void List(const std::string& prefix, const MergedSourceOptions& o, Out* out) {
   OPTION(queue_frames, "Frames read ahead per input before its reader waits");
 }
 
+void List(const std::string& prefix, const QualityTracker::Options& o, Out* out) {
+  [[maybe_unused]] const auto& [sigma_source, sigma_px, min_views, min_angle_deg] = o;
+  OPTION(sigma_source, "Pixel noise of the uncertainties: fixed (sigma_px) or model-rms (the model's RMS reprojection error)");
+  OPTION(sigma_px, "Pixel noise, standard deviation per coordinate, when fixed");
+  OPTION(min_views, "A well-covered point is seen by at least this many images");
+  OPTION(min_angle_deg, "... under a largest triangulation angle of at least this many degrees");
+}
+
 void List(const std::string& prefix, const ViewServerOptions& o, Out* out) {
   [[maybe_unused]] const auto& [lan, port, token, max_clients, max_queued_messages,
                                 keepalive_seconds, write_timeout_seconds, thumbnail_width,
@@ -617,6 +634,7 @@ const Root kRoots[] = {
     {"watch", "WatchedFolderOptions", "io/sources/watched_folder.h"},
     {"merged_source", "MergedSourceOptions", "io/sources/merged_source.h"},
     {"view", "ViewServerOptions", "io/view/view_server.h"},
+    {"quality", "QualityTracker::Options", "quality/quality_tracker.h"},
     {"retrieval_training", "RetrievalTrainingOptions", "retrieval/retrieval_model.h"},
     {"synthetic_capture", "SyntheticCaptureOptions", "io/synthetic/synthetic_source.h"},
 };
@@ -690,6 +708,7 @@ std::vector<OptionDefault> ListOptionDefaults() {
   List("watch.", WatchedFolderOptions(), &out);
   List("merged_source.", MergedSourceOptions(), &out);
   List("view.", ViewServerOptions(), &out);
+  List("quality.", QualityTracker::Options(), &out);
   List("retrieval_training.", RetrievalTrainingOptions(), &out);
   List("synthetic_capture.", SyntheticCaptureOptions(), &out);
   return out;

@@ -128,6 +128,24 @@ void Reconstruction::MarkPointChanged(point3D_t point3D_id) {
   }
 }
 
+void Reconstruction::Changes::Merge(const Changes& later) {
+  // The same rules as the model's own marks: added wins over changed, and
+  // removing an added point forgets it.
+  for (const point3D_t id : later.removed_points) {
+    changed_points.erase(id);
+    if (added_points.erase(id) == 0) removed_points.insert(id);
+  }
+  for (const point3D_t id : later.added_points) {
+    removed_points.erase(id);
+    added_points.insert(id);
+  }
+  for (const point3D_t id : later.changed_points) {
+    if (added_points.count(id) == 0) changed_points.insert(id);
+  }
+  changed_images.insert(later.changed_images.begin(), later.changed_images.end());
+  changed_cameras = changed_cameras || later.changed_cameras;
+}
+
 Reconstruction::Changes Reconstruction::TakeChanges() {
   Changes taken = std::move(changes_);
   changes_ = Changes();

@@ -86,6 +86,10 @@ class Reconstruction {
       return added_points.empty() && changed_points.empty() && removed_points.empty() &&
              changed_images.empty() && !changed_cameras;
     }
+    // Appends a later take, as if both had been one: a consumer that reads
+    // less often than another takes (the live view beside the quality
+    // tracker) keeps the takes it has not read yet this way.
+    void Merge(const Changes& later);
   };
   Changes TakeChanges();
   // For writers outside this class (BA writes positions and intrinsics

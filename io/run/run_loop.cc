@@ -54,6 +54,7 @@ class RunState {
       : options_(options), view_(view), engine_(engine), hooks_(hooks), start_(Clock::now()) {
     if (!options_.out.empty()) {
       writer_ = std::make_unique<RunWriter>(options_.out);
+      quality_ = std::make_unique<QualityTracker>(options_.quality);
       checkpointer_ = std::make_unique<Checkpointer>(
           std::filesystem::path(options_.out) / "state", options_.checkpoint);
     }
@@ -64,8 +65,14 @@ class RunState {
 
  private:
   void Resume();
+  // `quality_ms`: the quality update after the step that gave `results`,
+  // logged on the arriving image's record (else the first).
   void Report(const std::vector<ImageResult>& results, RunLoop::Origin origin,
-              const std::string& arriving = "");
+              const std::string& arriving = "", std::optional<double> quality_ms = std::nullopt);
+  // Takes the model's changes once for both consumers: updates the quality
+  // tracker and keeps them for the view's next update. The tracker's time,
+  // in ms (nullopt without a tracker).
+  std::optional<double> TakeChanges();
   void PublishView();
   void Checkpoint(double call_ms, bool final);
   bool WriteOutputs(bool final);
@@ -89,6 +96,9 @@ class RunState {
   Clock::time_point last_refresh_ = start_;
   std::unique_ptr<RunWriter> writer_;
   std::unique_ptr<Checkpointer> checkpointer_;
+  std::unique_ptr<QualityTracker> quality_;
+  // Changes taken since the view's last update.
+  Reconstruction::Changes view_changes_;
   std::unique_ptr<Quarantine> quarantine_;
   std::unique_ptr<QuarantineFilterSource> filtered_;
   std::unique_ptr<ProgressLine> progress_;
@@ -134,8 +144,13 @@ void RunState::Resume() {
 }
 
 void RunState::Report(const std::vector<ImageResult>& results, RunLoop::Origin origin,
-                      const std::string& arriving) {
-  for (const ImageResult& result : results) {
+                      const std::string& arriving, std::optional<double> quality_ms) {
+  std::size_t quality_owner = 0;
+  for (std::size_t i = 0; i < results.size(); ++i) {
+    if (!arriving.empty() && results[i].name == arriving) quality_owner = i;
+  }
+  for (std::size_t i = 0; i < results.size(); ++i) {
+    const ImageResult& result = results[i];
     RunLoop::Reported reported{result, origin, !arriving.empty() && result.name == arriving,
                                std::nullopt};
     const auto arrival = arrivals_.find(result.name);
@@ -151,17 +166,29 @@ void RunState::Report(const std::vector<ImageResult>& results, RunLoop::Origin o
     if (options_.print) PrintLine(options_.output, summary_.counts.images_in, result, shown_delay);
     const std::string source = SourceOf(result.name);
     if (view_) view_lines_.push_back(MakeViewLine(result, shown_delay, source));
-    if (writer_) writer_->Log(result, source);
+    std::optional<double> logged_quality_ms;
+    if (quality_) logged_quality_ms = i == quality_owner ? quality_ms.value_or(0) : 0;
+    if (writer_) writer_->Log(result, source, logged_quality_ms);
     logged_.push_back(result);
     summary_.results.push_back(std::move(reported));
   }
 }
 
+std::optional<double> RunState::TakeChanges() {
+  if (!quality_ && !view_) return std::nullopt;
+  const Reconstruction::Changes changes = engine_->TakeReconstructionChanges();
+  if (view_) view_changes_.Merge(changes);
+  if (!quality_) return std::nullopt;
+  return quality_->Update(engine_->reconstruction(), changes);
+}
+
 // Each step's changes to the model, as the page draws them (docs/view.md).
 void RunState::PublishView() {
   if (!view_) return;
-  view_->Publish(MakeViewUpdate(engine_->reconstruction(), engine_->TakeReconstructionChanges(),
+  TakeChanges();
+  view_->Publish(MakeViewUpdate(engine_->reconstruction(), std::move(view_changes_),
                                 std::move(view_lines_)));
+  view_changes_ = Reconstruction::Changes();
   view_lines_.clear();
 }
 
@@ -193,9 +220,10 @@ bool RunState::WriteOutputs(bool final) {
   if (!writer_) return true;
   try {
     if (!writer_->MayReplaceOutputs(engine_->reconstruction(), final)) return true;
-    writer_->WriteModel(engine_->reconstruction());
+    TakeChanges();
+    writer_->WriteModel(engine_->reconstruction(), quality_.get());
     writer_->WriteSummary(engine_->reconstruction(), logged_, counts,
-                          engine_->PendingImageNames(), SecondsSince(start_));
+                          engine_->PendingImageNames(), SecondsSince(start_), quality_.get());
     return true;
   } catch (const std::exception& e) {
     ++counts.write_errors;
@@ -244,7 +272,8 @@ void RunState::ProcessImage(PreparedFrame frame) {
     results.push_back(failed);
   }
   if (hooks_.on_image) hooks_.on_image(*engine_, results, call_ms);
-  Report(results, RunLoop::Origin::kArrival, name);
+  const std::optional<double> quality_ms = TakeChanges();
+  Report(results, RunLoop::Origin::kArrival, name, quality_ms);
   const auto checkpoint_start = Clock::now();
   Checkpoint(call_ms, /*final=*/false);
   summary_.calls.back().checkpoint_ms = 1000 * SecondsSince(checkpoint_start);
@@ -299,13 +328,15 @@ void RunState::RefineWhileIdle(const PreparedFrameSource& prepared) {
   if (refinement_failed_ || options_.between_images == Between::kNothing) return;
   const std::optional<std::string> error = ErrorOf([&] {
     if (options_.between_images == Between::kRefineToEnd) {
-      Report(engine_->RefineToEnd(), RunLoop::Origin::kRefinement);
+      const std::vector<ImageResult> registered = engine_->RefineToEnd();
+      Report(registered, RunLoop::Origin::kRefinement, "", TakeChanges());
       PublishView();
       return;
     }
     RefineUntilNextFrame(engine_, prepared, options_.refinement_share,
                          [&](Engine::RefinementSlice* slice) {
-                           Report(slice->registered, RunLoop::Origin::kRefinement);
+                           Report(slice->registered, RunLoop::Origin::kRefinement, "",
+                                  TakeChanges());
                            PublishView();
                            RefreshOutputs();
                          });
@@ -419,11 +450,10 @@ void RunState::PrintClosingLines() const {
 
 RunLoop::Summary RunState::Go(ImageSource* source) {
   Resume();
-  if (view_) {
-    // A resumed run's model so far, as one update.
-    engine_->TakeReconstructionChanges();
-    view_->Publish(MakeFullViewUpdate(engine_->reconstruction()));
-  }
+  // A resumed run's model so far: measured and published as a whole.
+  if (quality_ || view_) engine_->TakeReconstructionChanges();
+  if (quality_) quality_->Rebuild(engine_->reconstruction());
+  if (view_) view_->Publish(MakeFullViewUpdate(engine_->reconstruction()));
   ImageSource* input = source;
   if (!options_.out.empty()) {
     // Declared before the prepared source, so that they outlive the prefetch.
@@ -459,6 +489,7 @@ void RunLoop::Options::Check() const {
   }
   if (!(refresh_seconds >= 0)) throw std::invalid_argument("refresh_seconds must be >= 0");
   if (!checkpoint.Check()) throw std::invalid_argument("invalid checkpoint options");
+  quality.Check();
   if (resume && out.empty()) throw std::invalid_argument("resume needs an output folder");
   if (print && output == nullptr) throw std::invalid_argument("print needs an output");
   if (!(progress_interval_s >= 0)) throw std::invalid_argument("progress_interval_s must be >= 0");

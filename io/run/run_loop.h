@@ -29,6 +29,7 @@
 #include "io/run/prepared_source.h"
 #include "io/run/run_writer.h"
 #include "io/sources/image_source.h"
+#include "quality/quality_tracker.h"
 
 namespace flysfm {
 
@@ -70,6 +71,11 @@ class RunLoop {
     // Quarantined images get another try.
     bool retry_quarantined = false;
     Checkpointer::Options checkpoint;
+    // The quality measures kept with the outputs (points.ply's per-vertex
+    // measures, summary.json's "quality", log.jsonl's ms.quality); only
+    // with an output folder. Kept here, not in the engine: the engine's
+    // result stays what it was, whatever is measured of it.
+    QualityTracker::Options quality;
 
     // One line per image result, the end's progress (a line updating in
     // place on a terminal, plain lines elsewhere: io/run/progress_line.h)

@@ -33,6 +33,51 @@ nlohmann::json ToJson(const Engine::RefinementTotals& totals) {
           {"ms", totals.ms}};
 }
 
+namespace {
+
+// A sigma, or null when undefined (JSON has no infinity).
+nlohmann::json SigmaJson(const std::optional<double>& sigma) {
+  return sigma ? nlohmann::json(*sigma) : nlohmann::json(nullptr);
+}
+
+}  // namespace
+
+nlohmann::json ToJson(const QualityTracker& quality, const Reconstruction& reconstruction) {
+  const QualityTracker::Summary summary = quality.Summarize();
+  const QualityTracker::Options& options = quality.options();
+  nlohmann::json images = nlohmann::json::array();
+  for (const auto& [image_id, image] : quality.Images()) {
+    images.push_back({{"name", reconstruction.image(image_id).name},
+                      {"inliers", image.inliers},
+                      {"spread", image.spread},
+                      {"center_sigma", SigmaJson(image.center_sigma)}});
+  }
+  return {
+      {"sigma_px", summary.sigma_px},
+      {"sigma_source",
+       options.sigma_source == QualityTracker::Options::Sigma::kFixed ? "fixed" : "model-rms"},
+      {"min_views", options.min_views},
+      {"min_angle_deg", options.min_angle_deg},
+      {"points", summary.points},
+      {"well_covered_points", summary.well_covered_points},
+      {"well_covered_share", summary.well_covered_share},
+      {"median_views", summary.median_views},
+      {"median_max_angle_deg", summary.median_max_angle_deg},
+      {"median_error_px", summary.median_error_px},
+      {"median_point_sigma", summary.median_point_sigma},
+      {"undefined_point_sigmas", summary.undefined_point_sigmas},
+      {"images", summary.images},
+      {"median_inliers", summary.median_inliers},
+      {"median_spread", summary.median_spread},
+      {"median_center_sigma", summary.median_center_sigma},
+      {"undefined_center_sigmas", summary.undefined_center_sigmas},
+      {"updates", summary.updates},
+      {"recomputed_points", summary.recomputed_points},
+      {"recomputed_images", summary.recomputed_images},
+      {"update_ms", summary.update_ms},
+      {"per_image", images}};
+}
+
 nlohmann::json ToJson(const ImageResult& result) {
   nlohmann::json json = {
       {"name", result.name},
@@ -117,17 +162,25 @@ bool RunWriter::MayReplaceOutputs(const Reconstruction& reconstruction, bool fin
   return true;
 }
 
-void RunWriter::Log(const ImageResult& result, const std::string& source) {
+void RunWriter::Log(const ImageResult& result, const std::string& source,
+                    std::optional<double> quality_ms) {
   nlohmann::json record = ToJson(result);
   if (!source.empty()) record["source"] = source;
+  if (quality_ms) record["ms"]["quality"] = *quality_ms;
   // One whole line per write, flushed: a reader tailing the log never sees
   // half a record, and a crash loses none that was reported.
   log_ << record.dump() + "\n" << std::flush;
 }
 
-void RunWriter::WriteModel(const Reconstruction& reconstruction) {
+void RunWriter::WriteModel(const Reconstruction& reconstruction,
+                           const QualityTracker* quality) {
   WriteColmapModel(reconstruction, dir_ / "sparse");
-  WritePly(reconstruction, dir_ / "points.ply");
+  if (quality) {
+    const std::unordered_map<point3D_t, PointQuality> points = quality->Points();
+    WritePly(reconstruction, dir_ / "points.ply", &points);
+  } else {
+    WritePly(reconstruction, dir_ / "points.ply");
+  }
   WriteTumTrajectory(TrajectoryOf(reconstruction), dir_ / "trajectory.txt");
 }
 
@@ -135,7 +188,7 @@ void RunWriter::WriteSummary(const Reconstruction& reconstruction,
                              const std::vector<ImageResult>& results,
                              const RunCounts& counts,
                              const std::vector<std::string>& pending,
-                             double wall_seconds) {
+                             double wall_seconds, const QualityTracker* quality) {
   int rejected = 0;
   for (const ImageResult& result : results) rejected += result.status == ImageStatus::kRejected;
   // The cameras as the model ends with them, with what COLMAP's format has no
@@ -180,6 +233,7 @@ void RunWriter::WriteSummary(const Reconstruction& reconstruction,
     }
     summary["sources"] = sources;
   }
+  if (quality) summary["quality"] = ToJson(*quality, reconstruction);
   WriteFileAtomically(dir_ / "summary.json",
                       [&](std::ostream& out) { out << summary.dump(2) << "\n"; });
 }

@@ -3,9 +3,9 @@
 // What a run leaves in its output folder, kept current as images arrive:
 //   log.jsonl     one ImageResult per line, appended as it happens
 //   sparse/       the model in COLMAP text and binary format
-//   points.ply    the coloured points
+//   points.ply    the coloured points, with their quality measures
 //   trajectory.txt  the registered poses, TUM format (camera-to-world)
-//   summary.json  counts, accuracy and stage timings of the run so far
+//   summary.json  counts, accuracy, stage timings and quality of the run so far
 // Every file but the log is replaced atomically. The log is appended to
 // across runs on the same folder. The model files and the summary a previous
 // run left are replaced only once this run's model has at least as many
@@ -13,6 +13,7 @@
 // overwrite a larger model.
 
 #include <filesystem>
+#include <optional>
 #include <fstream>
 #include <string>
 #include <vector>
@@ -20,12 +21,17 @@
 #include <nlohmann/json.hpp>
 
 #include "core/engine.h"
+#include "quality/quality_tracker.h"
 
 namespace flysfm {
 
 nlohmann::json ToJson(const ImageResult& result);
 // summary.json's "refinement".
 nlohmann::json ToJson(const Engine::RefinementTotals& totals);
+// summary.json's "quality": the tracker's summary, its options, and per
+// registered image its name, inliers, spread and centre sigma (null when
+// undefined).
+nlohmann::json ToJson(const QualityTracker& quality, const Reconstruction& reconstruction);
 
 // One photographer's share of a run fed by several sources
 // (io/sources/merged_source.h): summary.json's "sources". Each count is the
@@ -63,17 +69,24 @@ class RunWriter {
 
   // `source`: the tag of the source the image came from (a "source" field
   // on its record); empty for a single source, and then no field.
-  void Log(const ImageResult& result, const std::string& source = "");
+  // `quality_ms`: the quality tracker's update for this record, as "quality"
+  // in its "ms" (outside "total", which is the engine's); none without it.
+  void Log(const ImageResult& result, const std::string& source = "",
+           std::optional<double> quality_ms = std::nullopt);
   // Whether the model files and summary may be written now: false while
   // `reconstruction` has fewer registered images than a previous run's
   // model in the folder. `final` (the run's last write) makes it true, the
   // previous model files and summary then moved to OUT/previous/ first.
   bool MayReplaceOutputs(const Reconstruction& reconstruction, bool final);
-  void WriteModel(const Reconstruction& reconstruction);
-  // `results`: every result logged so far.
+  // `quality`, when given, must be current: its measures go into points.ply.
+  void WriteModel(const Reconstruction& reconstruction,
+                  const QualityTracker* quality = nullptr);
+  // `results`: every result logged so far. `quality`, when given and
+  // current, becomes the "quality" object.
   void WriteSummary(const Reconstruction& reconstruction,
                     const std::vector<ImageResult>& results, const RunCounts& counts,
-                    const std::vector<std::string>& pending, double wall_seconds);
+                    const std::vector<std::string>& pending, double wall_seconds,
+                    const QualityTracker* quality = nullptr);
 
   const std::filesystem::path& dir() const { return dir_; }
 

@@ -285,6 +285,45 @@ TEST_CASE("TakeChanges reports what changed since the last take and only that") 
   CHECK(all.changed_images.size() == r.NumRegisteredImages());
 }
 
+TEST_CASE("Two takes merged are the one take of the same edits") {
+  const auto first = [](Fixture& f) {
+    Reconstruction& r = f.reconstruction;
+    r.DeletePoint3D(f.point_ids[1]);
+    r.point3D(f.point_ids[0]).xyz += Eigen::Vector3d(0.1, 0, 0);
+    r.MarkPointChanged(f.point_ids[0]);
+    const std::vector<TrackElement> track = r.point3D(f.point_ids[2]).track;
+    r.DeletePoint3D(f.point_ids[2]);
+    return r.AddPoint3D(Eigen::Vector3d::Zero(), track);
+  };
+  const auto second = [](Fixture& f, point3D_t added) {
+    Reconstruction& r = f.reconstruction;
+    r.DeletePoint3D(added);             // added, then removed: never seen
+    r.DeletePoint3D(f.point_ids[0]);    // changed, then removed
+    r.MarkPointChanged(f.point_ids[3]);
+    const image_t moved_image = testing::SceneImageId(3);
+    r.RegisterImage(moved_image, *r.image(moved_image).cam_from_world);
+    r.MarkCamerasChanged();
+  };
+  Fixture one, two;
+  one.reconstruction.TakeChanges();
+  second(one, first(one));
+  const Reconstruction::Changes whole = one.reconstruction.TakeChanges();
+
+  two.reconstruction.TakeChanges();
+  const point3D_t added = first(two);
+  Reconstruction::Changes merged = two.reconstruction.TakeChanges();
+  second(two, added);
+  merged.Merge(two.reconstruction.TakeChanges());
+
+  CHECK(merged.added_points == whole.added_points);
+  CHECK(merged.changed_points == whole.changed_points);
+  CHECK(merged.removed_points == whole.removed_points);
+  CHECK(merged.changed_images == whole.changed_images);
+  CHECK(merged.changed_cameras == whole.changed_cameras);
+  CHECK(merged.removed_points.count(one.point_ids[0]) == 1);
+  CHECK(merged.added_points.empty());
+}
+
 }  // namespace
 }  // namespace flysfm
 

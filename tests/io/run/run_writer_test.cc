@@ -1,5 +1,6 @@
 #include "io/run/run_writer.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
@@ -140,6 +141,56 @@ TEST_CASE("A log record names its source, the summary counts each source") {
   RunWriter(dir).WriteSummary(Reconstruction(), {}, RunCounts(), {}, 1.0);
   std::ifstream single(dir / "summary.json");
   CHECK_FALSE(nlohmann::json::parse(single).contains("sources"));
+}
+
+TEST_CASE("With a quality tracker: ms.quality in the log, the measures in summary and PLY") {
+  const Reconstruction& model = Written().model;
+  QualityTracker quality;
+  quality.Rebuild(model);
+  const fs::path dir = testing::MakeTempDir("run_writer_quality");
+  {
+    RunWriter writer(dir);
+    ImageResult result;
+    result.name = "IMG_0001.JPG";
+    result.times.ba = 2;
+    result.times.UpdateTotal();
+    writer.Log(result, "", 1.5);
+    writer.Log(result);
+    writer.WriteModel(model, &quality);
+    writer.WriteSummary(model, {result}, RunCounts(), {}, 1.0, &quality);
+  }
+  std::ifstream log(dir / "log.jsonl");
+  std::string first, second;
+  std::getline(log, first);
+  std::getline(log, second);
+  const nlohmann::json record = nlohmann::json::parse(first);
+  CHECK(record["ms"]["quality"] == 1.5);
+  CHECK(record["ms"]["total"] == 2);  // the engine's stages alone
+  CHECK_FALSE(nlohmann::json::parse(second)["ms"].contains("quality"));
+
+  std::ifstream summary_file(dir / "summary.json");
+  const nlohmann::json json = nlohmann::json::parse(summary_file)["quality"];
+  CHECK(json["points"] == model.NumPoints3D());
+  CHECK(json["images"] == model.NumRegisteredImages());
+  CHECK(json["sigma_px"] == 1.0);
+  CHECK(json["min_views"] == 3);
+  REQUIRE(json["per_image"].size() == model.NumRegisteredImages());
+  const nlohmann::json& first_image = json["per_image"][0];
+  const image_t first_id = *std::min_element(model.RegisteredImageIds().begin(),
+                                             model.RegisteredImageIds().end());
+  CHECK(first_image["name"] == model.image(first_id).name);
+  CHECK(first_image["inliers"] == model.image(first_id).num_points3D);
+  CHECK(first_image["spread"].get<double>() > 0);
+  CHECK(first_image["spread"].get<double>() <= 1);
+
+  std::ifstream ply(dir / "points.ply", std::ios::binary);
+  std::string line, header;
+  while (std::getline(ply, line) && line != "end_header") header += line + "\n";
+  CHECK(header.find("property float sigma") != std::string::npos);
+  // 3 doubles, 3 uchars, an int and 3 floats per vertex.
+  const auto body = ply.tellg();
+  ply.seekg(0, std::ios::end);
+  CHECK(std::size_t(ply.tellg() - body) == model.NumPoints3D() * (24 + 3 + 4 + 12));
 }
 
 TEST_CASE("The run's sparse/ model reads back, text and binary, as the engine's model") {

@@ -1,0 +1,217 @@
+#include "quality/quality_tracker.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <set>
+#include <stdexcept>
+
+#include "geometry/statistics.h"
+
+namespace flysfm {
+
+void QualityTracker::Options::Check() const {
+  if (!(sigma_px > 0 && std::isfinite(sigma_px))) {
+    throw std::invalid_argument("quality.sigma_px must be positive and finite");
+  }
+  if (min_views < 2) throw std::invalid_argument("quality.min_views must be >= 2");
+  if (!(min_angle_deg >= 0 && min_angle_deg < 180)) {
+    throw std::invalid_argument("quality.min_angle_deg must be in [0, 180)");
+  }
+}
+
+QualityTracker::QualityTracker() : QualityTracker(Options()) {}
+
+QualityTracker::QualityTracker(Options options) : options_(options) { options_.Check(); }
+
+void QualityTracker::ErasePoint(point3D_t point3D_id) {
+  const auto cached = points_.find(point3D_id);
+  if (cached == points_.end()) return;
+  squared_error_sum_ -= cached->second.quality.squared_error_sum;
+  num_observations_ -= std::size_t(cached->second.quality.views);
+  points_.erase(cached);
+}
+
+void QualityTracker::RecomputePoint(const Reconstruction& reconstruction,
+                                    point3D_t point3D_id) {
+  ErasePoint(point3D_id);
+  CachedPoint& cached = points_[point3D_id];
+  cached.quality = MeasurePoint(reconstruction, point3D_id, 1.0);
+  for (const TrackElement& element : reconstruction.point3D(point3D_id).track) {
+    cached.images.push_back(element.image_id);
+  }
+  squared_error_sum_ += cached.quality.squared_error_sum;
+  num_observations_ += std::size_t(cached.quality.views);
+  ++counters_.last_recomputed_points;
+}
+
+namespace {
+
+Reconstruction::Changes Everything(const Reconstruction& reconstruction) {
+  Reconstruction::Changes everything;
+  for (const auto& [id, point] : reconstruction.points3D()) everything.added_points.insert(id);
+  for (const auto& [id, image] : reconstruction.images()) everything.changed_images.insert(id);
+  return everything;
+}
+
+}  // namespace
+
+void QualityTracker::Rebuild(const Reconstruction& reconstruction) {
+  Reconstruction::Changes everything;
+  everything.changed_cameras = true;
+  Update(reconstruction, everything);
+}
+
+double QualityTracker::Update(const Reconstruction& reconstruction,
+                              const Reconstruction::Changes& changes) {
+  const auto start = std::chrono::steady_clock::now();
+  counters_.last_recomputed_points = 0;
+  counters_.last_recomputed_images = 0;
+  if (changes.changed_cameras) {
+    // Intrinsics move every projection: all of it again (a global BA's
+    // change, which cost the model's size already).
+    points_.clear();
+    images_.clear();
+    squared_error_sum_ = 0;
+    num_observations_ = 0;
+    Recompute(reconstruction, Everything(reconstruction));
+  } else {
+    Recompute(reconstruction, changes);
+  }
+  counters_.recomputed_points += counters_.last_recomputed_points;
+  counters_.recomputed_images += counters_.last_recomputed_images;
+  ++counters_.updates;
+  const double ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  counters_.update_ms += ms;
+  return ms;
+}
+
+void QualityTracker::Recompute(const Reconstruction& reconstruction,
+                               const Reconstruction::Changes& changes) {
+  std::set<point3D_t> points;  // to recompute
+  std::set<image_t> images;    // to recompute
+  const auto touch_track_images = [&](point3D_t point3D_id) {
+    const auto cached = points_.find(point3D_id);
+    if (cached != points_.end()) images.insert(cached->second.images.begin(), cached->second.images.end());
+    if (reconstruction.ExistsPoint3D(point3D_id)) {
+      for (const TrackElement& element : reconstruction.point3D(point3D_id).track) {
+        images.insert(element.image_id);
+      }
+    }
+  };
+  for (const point3D_t id : changes.removed_points) {
+    touch_track_images(id);
+    ErasePoint(id);
+  }
+  for (const auto* ids : {&changes.added_points, &changes.changed_points}) {
+    for (const point3D_t id : *ids) {
+      touch_track_images(id);
+      if (reconstruction.ExistsPoint3D(id)) points.insert(id);
+    }
+  }
+  for (const image_t id : changes.changed_images) {
+    images.insert(id);
+    if (!reconstruction.ExistsImage(id)) continue;
+    // Its points see it from elsewhere now; their positions did not move,
+    // so the other images observing them keep their measures.
+    for (const Point2D& point2D : reconstruction.image(id).points2D) {
+      if (point2D.HasPoint3D()) points.insert(point2D.point3D_id);
+    }
+  }
+  for (const point3D_t id : points) RecomputePoint(reconstruction, id);
+  for (const image_t id : images) {
+    if (!reconstruction.ExistsImage(id) || !reconstruction.image(id).IsRegistered()) {
+      images_.erase(id);
+      continue;
+    }
+    images_[id] = MeasureImage(reconstruction, id, 1.0);
+    ++counters_.last_recomputed_images;
+  }
+}
+
+double QualityTracker::SigmaPx() const {
+  if (options_.sigma_source == Options::Sigma::kModelRms && num_observations_ > 0) {
+    return std::sqrt(std::max(0.0, squared_error_sum_) / double(num_observations_));
+  }
+  return options_.sigma_px;
+}
+
+PointQuality QualityTracker::Scaled(PointQuality quality) const {
+  if (quality.sigma) *quality.sigma *= SigmaPx();
+  return quality;
+}
+
+std::optional<PointQuality> QualityTracker::Point(point3D_t point3D_id) const {
+  const auto cached = points_.find(point3D_id);
+  if (cached == points_.end()) return std::nullopt;
+  return Scaled(cached->second.quality);
+}
+
+std::optional<ImageQuality> QualityTracker::Image(image_t image_id) const {
+  const auto cached = images_.find(image_id);
+  if (cached == images_.end()) return std::nullopt;
+  ImageQuality quality = cached->second;
+  if (quality.center_sigma) *quality.center_sigma *= SigmaPx();
+  return quality;
+}
+
+std::unordered_map<point3D_t, PointQuality> QualityTracker::Points() const {
+  std::unordered_map<point3D_t, PointQuality> points;
+  points.reserve(points_.size());
+  for (const auto& [id, cached] : points_) points.emplace(id, Scaled(cached.quality));
+  return points;
+}
+
+std::vector<std::pair<image_t, ImageQuality>> QualityTracker::Images() const {
+  std::vector<std::pair<image_t, ImageQuality>> images;
+  images.reserve(images_.size());
+  for (const auto& entry : images_) images.emplace_back(entry.first, *Image(entry.first));
+  std::sort(images.begin(), images.end(),
+            [](const auto& a, const auto& b) { return a.first < b.first; });
+  return images;
+}
+
+QualityTracker::Summary QualityTracker::Summarize() const {
+  Summary summary = counters_;
+  summary.points = points_.size();
+  summary.images = images_.size();
+  summary.sigma_px = SigmaPx();
+  std::vector<double> views, angles, errors, sigmas;
+  for (const auto& [id, cached] : points_) {
+    const PointQuality& point = cached.quality;
+    views.push_back(point.views);
+    angles.push_back(point.max_angle_deg);
+    errors.push_back(point.error_px);
+    if (point.sigma) {
+      sigmas.push_back(*point.sigma * summary.sigma_px);
+    } else {
+      ++summary.undefined_point_sigmas;
+    }
+    summary.well_covered_points +=
+        point.views >= options_.min_views && point.max_angle_deg >= options_.min_angle_deg;
+  }
+  if (!points_.empty()) {
+    summary.well_covered_share = double(summary.well_covered_points) / double(points_.size());
+  }
+  summary.median_views = Median(views);
+  summary.median_max_angle_deg = Median(angles);
+  summary.median_error_px = Median(errors);
+  summary.median_point_sigma = Median(sigmas);
+  std::vector<double> inliers, spreads, center_sigmas;
+  for (const auto& [id, image] : images_) {
+    inliers.push_back(image.inliers);
+    spreads.push_back(image.spread);
+    if (image.center_sigma) {
+      center_sigmas.push_back(*image.center_sigma * summary.sigma_px);
+    } else {
+      ++summary.undefined_center_sigmas;
+    }
+  }
+  summary.median_inliers = Median(inliers);
+  summary.median_spread = Median(spreads);
+  summary.median_center_sigma = Median(center_sigmas);
+  return summary;
+}
+
+}  // namespace flysfm

@@ -1,0 +1,114 @@
+#pragma once
+
+// The quality measures (quality/measures.h) of every point and registered
+// image, kept current from the model's change sets at the cost of the change:
+// an update recomputes the points and images a take of
+// Reconstruction::TakeChanges() touched and keeps the rest.
+
+#include <optional>
+#include <unordered_map>
+#include <vector>
+
+#include "core/scene/reconstruction.h"
+#include "quality/measures.h"
+
+namespace flysfm {
+
+class QualityTracker {
+ public:
+  struct Options {
+    // Where the pixel noise of the uncertainties comes from.
+    enum class Sigma {
+      kFixed,     // sigma_px
+      kModelRms,  // the model's RMS reprojection error (sigma_px while it has none)
+    };
+    Sigma sigma_source = Sigma::kFixed;
+    // Pixel noise, standard deviation per coordinate. 1 px: what SIFT
+    // keypoints are good to on photos, before LSM sharpens them.
+    double sigma_px = 1.0;
+    // "Well covered": seen by at least min_views images under a largest
+    // triangulation angle of at least min_angle_deg. Three views let a wrong
+    // observation be told from a right one (two always agree with their
+    // point); below about 10 degrees the depth's standard deviation exceeds
+    // about 8 times the lateral one, Z / B for a stereo pair.
+    int min_views = 3;
+    double min_angle_deg = 10.0;
+
+    // Throws std::invalid_argument naming the bad option.
+    void Check() const;
+  };
+
+  struct Summary {
+    std::size_t points = 0;
+    std::size_t images = 0;                // registered
+    double sigma_px = 0;                   // the pixel noise the sigmas are for
+    std::size_t well_covered_points = 0;   // min_views and min_angle_deg met
+    double well_covered_share = 0;         // of the points; 0 without points
+    double median_views = 0;
+    double median_max_angle_deg = 0;
+    double median_error_px = 0;
+    double median_point_sigma = 0;         // over points with a defined sigma
+    std::size_t undefined_point_sigmas = 0;
+    double median_inliers = 0;
+    double median_spread = 0;
+    double median_center_sigma = 0;        // over images with a defined one
+    std::size_t undefined_center_sigmas = 0;
+    // What the updates did: the last one's and all of them.
+    std::size_t last_recomputed_points = 0;
+    std::size_t last_recomputed_images = 0;
+    std::size_t recomputed_points = 0;
+    std::size_t recomputed_images = 0;
+    std::size_t updates = 0;
+    double update_ms = 0;                  // all updates' time
+  };
+
+  QualityTracker();
+  explicit QualityTracker(Options options);
+
+  // Measures everything again (a model read or resumed): the cost of the
+  // model.
+  void Rebuild(const Reconstruction& reconstruction);
+  // Brings the measures up to date after `changes`, a take of
+  // reconstruction.TakeChanges(). Every change since the last Rebuild or
+  // Update must be in some take given here. Recomputes the points added,
+  // changed or observed by an image whose pose changed, and the images
+  // whose pose changed or that observe (or observed) a point added, changed
+  // or removed; written intrinsics recompute everything. Returns its time in
+  // ms.
+  double Update(const Reconstruction& reconstruction, const Reconstruction::Changes& changes);
+
+  // The pixel noise the sigmas are given for now.
+  double SigmaPx() const;
+  // The measures, sigmas for SigmaPx(); nullopt for an unknown id.
+  std::optional<PointQuality> Point(point3D_t point3D_id) const;
+  std::optional<ImageQuality> Image(image_t image_id) const;
+  // Every point's measures (O(points): for the files).
+  std::unordered_map<point3D_t, PointQuality> Points() const;
+  // Registered images by id, in id order.
+  std::vector<std::pair<image_t, ImageQuality>> Images() const;
+  // O(points + images): taken when the files are written.
+  Summary Summarize() const;
+
+  const Options& options() const { return options_; }
+
+ private:
+  struct CachedPoint {
+    PointQuality quality;  // sigma for 1 px
+    std::vector<image_t> images;  // its track's, for what its removal touches
+  };
+  void Recompute(const Reconstruction& reconstruction, const Reconstruction::Changes& changes);
+  void RecomputePoint(const Reconstruction& reconstruction, point3D_t point3D_id);
+  void ErasePoint(point3D_t point3D_id);
+  PointQuality Scaled(PointQuality quality) const;
+
+  Options options_;
+  // Sigmas are stored for a 1 px noise and scaled when read: the model's RMS
+  // changes with every image, and a covariance scales with sigma^2.
+  std::unordered_map<point3D_t, CachedPoint> points_;
+  std::unordered_map<image_t, ImageQuality> images_;
+  double squared_error_sum_ = 0;
+  std::size_t num_observations_ = 0;
+  Summary counters_;
+};
+
+}  // namespace flysfm

@@ -1,0 +1,186 @@
+#include "quality/quality_tracker.h"
+
+#include <cmath>
+#include <limits>
+#include <map>
+
+#include <catch2/catch.hpp>
+
+#include "tests/testing/scene_reconstruction.h"
+
+namespace flysfm {
+namespace {
+
+Reconstruction Scene(double noise_px = 0.5) {
+  testing::SyntheticSceneOptions options;
+  options.num_images = 6;
+  options.num_points = 200;
+  options.noise_px = noise_px;
+  options.seed = 7;
+  return testing::ReconstructionFromScene(testing::MakeSyntheticScene(options)).reconstruction;
+}
+
+bool SameSigma(const std::optional<double>& a, const std::optional<double>& b) {
+  if (!a || !b) return !a && !b;
+  return *a == Approx(*b).epsilon(1e-9);
+}
+
+// Every measure of `tracker` equals a measurement of the model from scratch.
+void CheckCurrent(const QualityTracker& tracker, const Reconstruction& r) {
+  const double sigma = tracker.SigmaPx();
+  REQUIRE(tracker.Points().size() == r.NumPoints3D());
+  for (const auto& [id, point] : r.points3D()) {
+    const PointQuality expected = MeasurePoint(r, id, sigma);
+    const std::optional<PointQuality> tracked = tracker.Point(id);
+    REQUIRE(tracked);
+    CHECK(tracked->views == expected.views);
+    CHECK(tracked->max_angle_deg == expected.max_angle_deg);
+    CHECK(tracked->error_px == expected.error_px);
+    CHECK(SameSigma(tracked->sigma, expected.sigma));
+  }
+  REQUIRE(tracker.Images().size() == r.NumRegisteredImages());
+  for (const image_t id : r.RegisteredImageIds()) {
+    const ImageQuality expected = MeasureImage(r, id, sigma);
+    const std::optional<ImageQuality> tracked = tracker.Image(id);
+    REQUIRE(tracked);
+    CHECK(tracked->inliers == expected.inliers);
+    CHECK(tracked->spread == expected.spread);
+    CHECK(SameSigma(tracked->center_sigma, expected.center_sigma));
+  }
+}
+
+TEST_CASE("A rebuilt tracker holds every point's and image's measures") {
+  const Reconstruction r = Scene();
+  QualityTracker tracker;
+  tracker.Rebuild(r);
+  CheckCurrent(tracker, r);
+  const QualityTracker::Summary summary = tracker.Summarize();
+  CHECK(summary.points == r.NumPoints3D());
+  CHECK(summary.images == r.NumRegisteredImages());
+  CHECK(summary.last_recomputed_points == r.NumPoints3D());
+  CHECK(summary.sigma_px == 1.0);
+  std::size_t well_covered = 0;
+  for (const auto& [id, point] : r.points3D()) {
+    well_covered += point.track.size() >= 3 && r.TriangulationAngleDeg(id) >= 10;
+  }
+  CHECK(summary.well_covered_points == well_covered);
+  CHECK(summary.well_covered_share == Approx(double(well_covered) / r.NumPoints3D()));
+}
+
+TEST_CASE("An update recomputes only what the change touched, and agrees with a rebuild") {
+  Reconstruction r = Scene();
+  QualityTracker tracker;
+  r.TakeChanges();
+  tracker.Rebuild(r);
+  std::vector<point3D_t> ids;
+  for (const auto& [id, point] : r.points3D()) ids.push_back(id);
+  std::sort(ids.begin(), ids.end());
+
+  SECTION("a point moved: itself and the images observing it") {
+    const point3D_t moved = ids[0];
+    r.point3D(moved).xyz += Eigen::Vector3d(0.01, -0.02, 0.03);
+    r.MarkPointChanged(moved);
+    tracker.Update(r, r.TakeChanges());
+    const QualityTracker::Summary summary = tracker.Summarize();
+    CHECK(summary.last_recomputed_points == 1);
+    CHECK(summary.last_recomputed_images == r.point3D(moved).track.size());
+    CheckCurrent(tracker, r);
+  }
+  SECTION("an image moved: itself and the points it observes") {
+    const image_t image_id = r.RegisteredImageIds()[2];
+    Rigid3d pose = *r.image(image_id).cam_from_world;
+    pose.translation += Eigen::Vector3d(0.02, 0, 0);
+    r.RegisterImage(image_id, pose);
+    tracker.Update(r, r.TakeChanges());
+    const QualityTracker::Summary summary = tracker.Summarize();
+    CHECK(summary.last_recomputed_images == 1);
+    CHECK(summary.last_recomputed_points == std::size_t(r.image(image_id).num_points3D));
+    CheckCurrent(tracker, r);
+  }
+  SECTION("a point removed: the images that observed it, and it is gone") {
+    const point3D_t gone = ids[1];
+    const std::size_t track = r.point3D(gone).track.size();
+    r.DeletePoint3D(gone);
+    tracker.Update(r, r.TakeChanges());
+    const QualityTracker::Summary summary = tracker.Summarize();
+    CHECK(summary.last_recomputed_points == 0);
+    CHECK(summary.last_recomputed_images == track);
+    CHECK_FALSE(tracker.Point(gone));
+    CheckCurrent(tracker, r);
+  }
+  SECTION("an observation dropped: its point and the images of its old track") {
+    const point3D_t thinned = ids[2];
+    const std::vector<TrackElement> track = r.point3D(thinned).track;
+    REQUIRE(track.size() >= 3);
+    r.DeleteObservation(track[0].image_id, track[0].point2D_idx);
+    tracker.Update(r, r.TakeChanges());
+    const QualityTracker::Summary summary = tracker.Summarize();
+    CHECK(summary.last_recomputed_points == 1);
+    CHECK(summary.last_recomputed_images == track.size());
+    CheckCurrent(tracker, r);
+  }
+  SECTION("an image deregistered: it leaves, its points are measured without it") {
+    const image_t image_id = r.RegisteredImageIds()[0];
+    r.DeRegisterImage(image_id);
+    tracker.Update(r, r.TakeChanges());
+    CHECK_FALSE(tracker.Image(image_id));
+    CheckCurrent(tracker, r);
+  }
+  SECTION("intrinsics written: everything") {
+    r.camera(r.cameras().begin()->first).params[0] *= 1.01;
+    r.MarkCamerasChanged();
+    tracker.Update(r, r.TakeChanges());
+    const QualityTracker::Summary summary = tracker.Summarize();
+    CHECK(summary.last_recomputed_points == r.NumPoints3D());
+    CHECK(summary.last_recomputed_images == r.NumRegisteredImages());
+    CheckCurrent(tracker, r);
+  }
+  SECTION("nothing changed: nothing recomputed") {
+    tracker.Update(r, r.TakeChanges());
+    CHECK(tracker.Summarize().last_recomputed_points == 0);
+    CHECK(tracker.Summarize().last_recomputed_images == 0);
+  }
+  CHECK(tracker.Summarize().updates == 2);
+}
+
+TEST_CASE("With the model's RMS as the pixel noise, every sigma scales with it") {
+  const Reconstruction r = Scene(0.8);
+  QualityTracker::Options options;
+  options.sigma_source = QualityTracker::Options::Sigma::kModelRms;
+  QualityTracker by_rms(options);
+  QualityTracker by_pixel;
+  by_rms.Rebuild(r);
+  by_pixel.Rebuild(r);
+  double squared = 0;
+  std::size_t count = 0;
+  for (const auto& [id, point] : r.points3D()) {
+    for (const TrackElement& element : point.track) {
+      squared += std::pow(r.ReprojectionError(element.image_id, element.point2D_idx, point.xyz), 2);
+      ++count;
+    }
+  }
+  const double rms = std::sqrt(squared / count);
+  CHECK(by_rms.SigmaPx() == Approx(rms).epsilon(1e-12));
+  CHECK(by_rms.Summarize().sigma_px == Approx(rms).epsilon(1e-12));
+  const point3D_t id = r.points3D().begin()->first;
+  CHECK(*by_rms.Point(id)->sigma == Approx(rms * *by_pixel.Point(id)->sigma).epsilon(1e-12));
+  const image_t image_id = r.RegisteredImageIds().front();
+  CHECK(*by_rms.Image(image_id)->center_sigma ==
+        Approx(rms * *by_pixel.Image(image_id)->center_sigma).epsilon(1e-12));
+  CheckCurrent(by_rms, r);
+}
+
+TEST_CASE("Bad quality options are refused, naming the option") {
+  QualityTracker::Options options;
+  options.sigma_px = 0;
+  CHECK_THROWS_WITH(QualityTracker(options), Catch::Contains("sigma_px"));
+  options = {};
+  options.min_views = 1;
+  CHECK_THROWS_WITH(QualityTracker(options), Catch::Contains("min_views"));
+  options = {};
+  options.min_angle_deg = -1;
+  CHECK_THROWS_WITH(QualityTracker(options), Catch::Contains("min_angle_deg"));
+}
+
+}  // namespace
+}  // namespace flysfm
