@@ -48,6 +48,11 @@ StageTimes SumOfTimes(const std::vector<ImageResult>& results) {
 }
 
 Session RunSession(Engine* engine, std::vector<Frame> frames, const SessionOptions& options) {
+  FrameListSource source(std::move(frames), options.interval_s);
+  return RunSession(engine, &source, options);
+}
+
+Session RunSession(Engine* engine, ImageSource* source, const SessionOptions& options) {
   Session session;
   session.peak_reset = ResetPeakRss();
   rusage usage;
@@ -70,8 +75,7 @@ Session RunSession(Engine* engine, std::vector<Frame> frames, const SessionOptio
     if (options.hooks.on_image) options.hooks.on_image(engine, results, call_ms);
     if (options.on_image) options.on_image(engine, results, times, call_ms);
   };
-  FrameListSource source(std::move(frames), options.interval_s);
-  session.run = RunLoop(options.run).Run(&source, engine, hooks);
+  session.run = RunLoop(options.run).Run(source, engine, hooks);
   session.peak_rss_mb = ProcStatusMb("VmHWM");
   getrusage(RUSAGE_SELF, &usage);
   session.page_faults += usage.ru_minflt;

@@ -65,6 +65,9 @@ struct Session {
 // Feeds `frames` to `engine` through the run loop (prints nothing unless
 // options.run.print).
 Session RunSession(Engine* engine, std::vector<Frame> frames, const SessionOptions& options);
+// The same with a source of the caller's (several photographers merged:
+// io/sources/merged_source.h); options.interval_s is the source's to apply.
+Session RunSession(Engine* engine, ImageSource* source, const SessionOptions& options);
 
 // Sum of `results`' stage times, `total` updated.
 StageTimes SumOfTimes(const std::vector<ImageResult>& results);

@@ -1,5 +1,6 @@
 #include "bench/photo_session.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -33,6 +34,8 @@ constexpr double kGroundHalfSize = 36.0;
 // Bumped whenever the scene or the path changes, so that a folder of
 // renders is never reused stale.
 constexpr int kSceneVersion = 1;
+// Bumped whenever MakeRingShots changes.
+constexpr int kRingPlanVersion = 1;
 
 // Every facet has its own texture (seeded by its index): no two places look
 // alike, as on a real facade with its dirt and weathering.
@@ -171,6 +174,38 @@ std::vector<Shot> MakePhotoSession(int num_photos, std::uint32_t seed) {
   return shots;
 }
 
+std::vector<Shot> MakeRingShots(const std::vector<RingStop>& stops, std::uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  const Eigen::Vector3d up = Eigen::Vector3d::UnitZ();
+  const Eigen::Vector3d target(0, 0, 3.5);
+  std::vector<Shot> shots;
+  for (const RingStop& stop : stops) {
+    const double angle = stop.angle_deg * M_PI / 180;
+    const double radius = stop.radius_m + 0.3 * unit(rng);
+    const Eigen::Vector3d center(radius * std::cos(angle), radius * std::sin(angle),
+                                 stop.height_m + 0.1 * unit(rng));
+    Eigen::Vector3d forward = (target - center).normalized();
+    forward = Eigen::AngleAxisd(5.0 * M_PI / 180 * unit(rng), up) * forward;
+    Eigen::Vector3d right = forward.cross(up).normalized();
+    forward = Eigen::AngleAxisd(3.0 * M_PI / 180 * unit(rng), right) * forward;
+    right = forward.cross(up).normalized();
+    right = Eigen::AngleAxisd(2.0 * M_PI / 180 * unit(rng), forward) * right;
+    // Camera axes: x right, y down, z forward.
+    Eigen::Matrix3d world_from_cam;
+    world_from_cam << right, forward.cross(right), forward;
+    Shot shot;
+    shot.name = stop.name;
+    shot.cam_from_world = Rigid3d(Eigen::Matrix3d(world_from_cam.transpose()),
+                                  -(world_from_cam.transpose() * center));
+    const Eigen::Vector2d outside(std::max(0.0, std::abs(center.x()) - kHalfX),
+                                  std::max(0.0, std::abs(center.y()) - kHalfY));
+    shot.distance_to_building = outside.norm();
+    shots.push_back(shot);
+  }
+  return shots;
+}
+
 std::vector<double> RenderPhotoSession(const std::vector<Shot>& shots, const Camera& camera,
                                   std::uint32_t seed, int supersampling,
                                   const std::filesystem::path& dir, int num_threads) {
@@ -219,12 +254,18 @@ std::string PhotoSessionCamera(int width) {
 }
 
 void PrepareRenderFolder(const std::filesystem::path& dir, std::uint32_t seed,
-                         const Camera& camera, int supersampling) {
-  const nlohmann::json manifest = {{"scene_version", kSceneVersion},
-                                   {"seed", seed},
-                                   {"width", camera.width},
-                                   {"height", camera.height},
-                                   {"supersampling", supersampling}};
+                         const Camera& camera, int supersampling, const std::string& plan) {
+  nlohmann::json manifest = {{"scene_version", kSceneVersion},
+                             {"seed", seed},
+                             {"width", camera.width},
+                             {"height", camera.height},
+                             {"supersampling", supersampling}};
+  // Absent for bench_photos' path, so that folders rendered before the
+  // ring plans existed stay valid.
+  if (!plan.empty()) {
+    manifest["plan"] = plan;
+    manifest["ring_plan_version"] = kRingPlanVersion;
+  }
   std::filesystem::create_directories(dir);
   nlohmann::json existing;
   std::ifstream in(dir / "manifest.json");

@@ -1,9 +1,9 @@
 #pragma once
 
-// The rendered photo session of bench_photos and bench_refine: a building
-// (16 m x 12 m, 8 m high, two bays, a textured ground) and a photographer's
-// path around it, rendered by io/synthetic as JPEGs, with the exact pose of
-// every shot.
+// The rendered photo session of bench_photos, bench_refine and bench_agents:
+// a building (16 m x 12 m, 8 m high, two bays, a textured ground) and
+// photographers' paths around it, rendered by io/synthetic as JPEGs, with
+// the exact pose of every shot.
 
 #include <cstdint>
 #include <filesystem>
@@ -16,7 +16,7 @@
 namespace flysfm {
 
 struct Shot {
-  std::string name;  // photo_NNNN.jpg, in the order of the path
+  std::string name;  // photo_NNNN.jpg in the order of the path, or the ring stop's
   Rigid3d cam_from_world;
   double distance_to_building;  // to the footprint, metres
 };
@@ -33,11 +33,28 @@ std::string PhotoSessionCamera(int width);
 // The first `num_photos` shots of it.
 std::vector<Shot> MakePhotoSession(int num_photos, std::uint32_t seed);
 
-// Makes `dir` hold renders of this scene version, seed, camera and
-// supersampling only: JPEGs rendered otherwise (its manifest says) are
-// removed, so that a kept folder is reused only when it matches.
+// Where a photographer stands on a circle about the building's centre.
+struct RingStop {
+  std::string name;   // the shot's file name
+  double angle_deg;   // counter-clockwise from +x (east); -90 is south
+  double radius_m;    // from the building's centre, on the ground
+  double height_m;    // of the camera
+};
+
+// One shot per stop, aimed at the building's centre at 3.5 m with the
+// hand's jitter (up to 0.3 m along the radius, 0.1 m in height, 5 deg of
+// yaw, 3 deg of pitch, 2 deg of roll), seeded: a ring of shots around the
+// building, whichever part of it each photographer walks.
+std::vector<Shot> MakeRingShots(const std::vector<RingStop>& stops, std::uint32_t seed);
+
+// Makes `dir` hold renders of this scene version, seed, camera,
+// supersampling and `plan` only (`plan` names the shot plan and its
+// parameters when it is not bench_photos' path): JPEGs rendered otherwise
+// (its manifest says) are removed, so that a kept folder is reused only when
+// it matches.
 void PrepareRenderFolder(const std::filesystem::path& dir, std::uint32_t seed,
-                         const Camera& camera, int supersampling);
+                         const Camera& camera, int supersampling,
+                         const std::string& plan = "");
 
 // Renders the shots missing from `dir` as JPEGs (quality 92; OpenCV writes
 // JFIF, no EXIF, so an uncalibrated engine must guess the focal length) on

@@ -1,0 +1,563 @@
+// Does every shot get a pose when it arrives? The engine keeps one model: a
+// shot that does not connect to it waits in the pending pool, without a
+// pose, until a later shot bridges the gap. This benchmark measures that on
+// rendered captures of bench_photos' building (exact ground truth), the
+// baseline for an engine whose sub-models grow apart and merge live:
+//
+//   ring     one photographer walks a ring of shots around the building, one
+//            step of which is a gap (--gap-deg, 60 by default, across the
+//            south-east corner) too wide to match across; the ring walked
+//            forward and reversed (two runs on the same photos).
+//   agents   three photographers start on three sides and each walks about
+//            140 deg around, their shots interleaved by capture time through
+//            MergedSource, each frame tagged with its photographer.
+//   two      two photographers start on opposite sides and each walks half
+//            way round: each comes near where the other started only
+//            at the end of its walk.
+//
+//   bench_agents [--scenarios ring,agents,two] [--photos N] [--gap-deg D]
+//                [--megapixels MP] [--seed S] [--supersampling K] [--work DIR]
+//                [--glibc-malloc-defaults]
+//
+// --photos is the ring's number of shots; the step between two shots,
+// (360 - gap) / (photos - 1) degrees, is every walk's. The engine is given
+// the true K and is fed as `flysfm batch` feeds it, unpaced (nothing refined
+// between shots, so the figures do not depend on the machine's speed).
+// For each run it prints one line per shot and then: the shots; how many
+// had a pose at their arrival (the shot's own result of its own engine
+// call); how many at the end (after Finish); the longest stretch of
+// consecutive shots without a pose at arrival; the same per photographer;
+// the camera-centre RMSE after Sim3 of the final model and of the poses as
+// they were at arrival; how many poses are wrong (a centre off by more than
+// 5 % of the scene, the largest distance between two true camera centres);
+// the per-shot time of all stages; and the number of models (the engine
+// has one and no count of them). Ends with one line of JSON.
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <map>
+#include <memory>
+#include <optional>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include "bench/bench_session.h"
+#include "bench/photo_session.h"
+#include "core/engine.h"
+#include "core/malloc_policy.h"
+#include "geometry/statistics.h"
+#include "io/evaluation/evaluation.h"
+#include "io/sources/image_source.h"
+#include "io/sources/merged_source.h"
+
+namespace flysfm {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct Flags {
+  std::vector<std::string> scenarios = {"ring", "agents", "two"};
+  int num_photos = 41;
+  double gap_deg = 60;
+  double megapixels = 6;
+  int seed = 1;
+  int supersampling = 1;
+  std::string work;
+  bool glibc_malloc_defaults = false;
+};
+
+// The south-east corner's direction from the building's centre (16 m x
+// 12 m): the ring's gap is centred on it, so that the shots on either side
+// see the east wall from 60 deg apart, one of them at a grazing angle.
+// Centred on a wall's normal instead, both would see that wall 30 deg off
+// its normal, close enough to match.
+const double kGapCentreDeg = -std::atan2(6.0, 8.0) * 180 / M_PI;
+
+// One photographer: where each shot is taken and when.
+struct Photographer {
+  std::string tag;               // empty for a lone photographer
+  std::vector<RingStop> stops;   // in the order they are shot
+  std::vector<double> capture_s;
+};
+
+// A run of the engine on one scenario's photographers.
+struct Scenario {
+  std::string name;
+  std::string folder;  // under the work folder; a photographer's photos in <folder>/<tag>
+  std::vector<Photographer> photographers;
+};
+
+double StepDeg(const Flags& flags) { return (360.0 - flags.gap_deg) / (flags.num_photos - 1); }
+
+std::string ShotName(int index) {
+  char name[32];
+  std::snprintf(name, sizeof(name), "shot_%04d.jpg", index);
+  return name;
+}
+
+// A photographer walking counter-clockwise from `start_deg`, `num_shots`
+// shots `step_deg` apart, one every `interval_s` from `first_s`.
+Photographer Walk(const std::string& tag, double start_deg, double step_deg, int num_shots,
+                  double radius_m, double height_m, double first_s, double interval_s) {
+  Photographer walker;
+  walker.tag = tag;
+  for (int i = 0; i < num_shots; ++i) {
+    walker.stops.push_back({ShotName(i), start_deg + i * step_deg, radius_m, height_m});
+    walker.capture_s.push_back(first_s + i * interval_s);
+  }
+  return walker;
+}
+
+// The ring: shots `step` apart all round but for one gap after the first
+// third, centred on the south-east corner; the last shot is one step before
+// the first, so that walking on closes the ring.
+std::vector<Scenario> RingScenarios(const Flags& flags) {
+  const double step = StepDeg(flags);
+  const int before_gap = (flags.num_photos - 1) / 3;  // the last shot before it
+  const double start = kGapCentreDeg - 0.5 * flags.gap_deg - before_gap * step;
+  Photographer forward;
+  for (int i = 0; i < flags.num_photos; ++i) {
+    const double angle = start + i * step + (i > before_gap ? flags.gap_deg - step : 0.0);
+    forward.stops.push_back({ShotName(i), angle, 20.0, 1.6});
+    forward.capture_s.push_back(10.0 * i);
+  }
+  Photographer reversed = forward;
+  std::reverse(reversed.stops.begin(), reversed.stops.end());
+  return {{"ring forward", "ring", {forward}}, {"ring reversed", "ring", {reversed}}};
+}
+
+// Three photographers starting 120 deg apart (south, north-east, north-west
+// of the building), each walking about 140 deg: each reaches where the next
+// one started. Their paces differ (10, 11 and 9 s), as three people's do.
+Scenario AgentsScenario(const Flags& flags) {
+  const double step = StepDeg(flags);
+  const int shots = int(std::lround(140.0 / step)) + 1;
+  return {"agents",
+          "agents",
+          {Walk("A", -90.0, step, shots, 20.0, 1.6, 0.0, 10.0),
+           Walk("B", 30.0, step, shots, 21.0, 1.7, 2.0, 11.0),
+           Walk("C", 150.0, step, shots, 19.0, 1.5, 5.0, 9.0)}};
+}
+
+// Two photographers starting on opposite sides (west and east), each
+// walking half way round at the same pace: the first shots of each are next
+// to the last shots of the other, so they meet only towards the end.
+Scenario TwoScenario(const Flags& flags) {
+  const double step = StepDeg(flags);
+  const int shots = int(std::lround(180.0 / step));
+  return {"two",
+          "two",
+          {Walk("A", 180.0, step, shots, 20.0, 1.6, 0.0, 10.0),
+           Walk("B", 0.0, step, shots, 20.0, 1.7, 5.0, 10.0)}};
+}
+
+// The width of a 3:2 photo of `megapixels` (6 MP is 3000 x 2000, as
+// bench_photos').
+int PhotoWidth(double megapixels) { return int(std::lround(std::sqrt(megapixels * 1e6 * 1.5))); }
+
+// Where `walker`'s photos are rendered.
+fs::path WalkerFolder(const fs::path& work, const Scenario& scenario,
+                      const Photographer& walker) {
+  return work / scenario.folder / (walker.tag.empty() ? "shots" : walker.tag);
+}
+
+// Renders what is missing of `walker`'s photos; returns the true camera
+// centres by file name. The stops are taken in name order whatever order a
+// run walks them in, so that the forward and reversed rings share the
+// photos and the hand's jitter.
+std::map<std::string, Eigen::Vector3d> RenderWalker(const Flags& flags, const fs::path& dir,
+                                                    const Camera& camera,
+                                                    const Photographer& walker,
+                                                    std::vector<double>* render_ms) {
+  std::vector<RingStop> stops = walker.stops;
+  std::sort(stops.begin(), stops.end(),
+            [](const RingStop& a, const RingStop& b) { return a.name < b.name; });
+  // The plan: every stop, so that a folder rendered for other parameters is
+  // never reused.
+  std::ostringstream plan;
+  plan.precision(9);
+  for (const RingStop& stop : stops) {
+    plan << stop.name << ' ' << stop.angle_deg << ' ' << stop.radius_m << ' ' << stop.height_m
+         << ';';
+  }
+  PrepareRenderFolder(dir, std::uint32_t(flags.seed), camera, flags.supersampling, plan.str());
+  // Each photographer's jitter seeded apart.
+  std::uint32_t seed = std::uint32_t(flags.seed);
+  for (const char c : walker.tag) seed = seed * 131u + std::uint32_t(c);
+  const std::vector<Shot> shots = MakeRingShots(stops, seed);
+  const std::vector<double> times =
+      RenderPhotoSession(shots, camera, std::uint32_t(flags.seed), flags.supersampling, dir, 2);
+  render_ms->insert(render_ms->end(), times.begin(), times.end());
+  std::map<std::string, Eigen::Vector3d> centres;
+  for (const Shot& shot : shots) centres[shot.name] = ProjectionCenter(shot.cam_from_world);
+  return centres;
+}
+
+// The name a shot has in the run: MergedSource names a frame `<tag>/<name>`
+// when it merges more than one photographer.
+std::string RunName(const Scenario& scenario, const Photographer& walker,
+                    const std::string& file) {
+  return scenario.photographers.size() > 1 ? walker.tag + "/" + file : file;
+}
+
+// What a shot got.
+struct ShotOutcome {
+  std::string name;
+  std::string source;  // the photographer's tag
+  bool posed_at_arrival = false;
+  bool posed_at_end = false;
+  std::optional<Eigen::Vector3d> centre_at_arrival;
+  std::optional<double> error_at_arrival_m;  // after the arrival poses' Sim3
+  std::optional<double> error_at_end_m;      // after the final model's Sim3
+  double all_stages_ms = 0;
+};
+
+// The counts of a set of shots in arrival order (a run's or a photographer's).
+struct Counts {
+  int shots = 0;
+  int posed_at_arrival = 0;
+  int posed_at_end = 0;
+  int longest_unposed = 0;  // consecutive shots without a pose at arrival
+  int wrong_at_arrival = 0;
+  int wrong_at_end = 0;
+  double rmse_at_end_m = -1;      // over the shots posed at the end
+  double rmse_at_arrival_m = -1;  // over the shots posed at arrival
+};
+
+double Rms(const std::vector<double>& values) {
+  if (values.empty()) return -1;
+  double sum = 0;
+  for (const double v : values) sum += v * v;
+  return std::sqrt(sum / values.size());
+}
+
+Counts Count(const std::vector<const ShotOutcome*>& shots, double wrong_m) {
+  Counts counts;
+  int unposed = 0;
+  std::vector<double> at_end, at_arrival;
+  for (const ShotOutcome* shot : shots) {
+    ++counts.shots;
+    counts.posed_at_arrival += shot->posed_at_arrival;
+    counts.posed_at_end += shot->posed_at_end;
+    unposed = shot->posed_at_arrival ? 0 : unposed + 1;
+    counts.longest_unposed = std::max(counts.longest_unposed, unposed);
+    if (shot->error_at_arrival_m) {
+      at_arrival.push_back(*shot->error_at_arrival_m);
+      counts.wrong_at_arrival += *shot->error_at_arrival_m > wrong_m;
+    }
+    if (shot->error_at_end_m) {
+      at_end.push_back(*shot->error_at_end_m);
+      counts.wrong_at_end += *shot->error_at_end_m > wrong_m;
+    }
+  }
+  counts.rmse_at_end_m = Rms(at_end);
+  counts.rmse_at_arrival_m = Rms(at_arrival);
+  return counts;
+}
+
+nlohmann::json CountsJson(const Counts& counts) {
+  return {{"shots", counts.shots},
+          {"posed_at_arrival", counts.posed_at_arrival},
+          {"posed_at_end", counts.posed_at_end},
+          {"longest_unposed_at_arrival", counts.longest_unposed},
+          {"wrong_at_arrival", counts.wrong_at_arrival},
+          {"wrong_at_end", counts.wrong_at_end},
+          {"center_rmse_m", counts.rmse_at_end_m},
+          {"arrival_center_rmse_m", counts.rmse_at_arrival_m}};
+}
+
+void PrintCounts(const char* label, const Counts& counts) {
+  std::printf("  %-12s %3d shots: %3d posed at arrival, %3d at the end; longest stretch "
+              "without a pose at arrival %3d; wrong at arrival %d, at the end %d; centre RMSE "
+              "%.2f mm (at the end), %.2f mm (at arrival)\n",
+              label, counts.shots, counts.posed_at_arrival, counts.posed_at_end,
+              counts.longest_unposed, counts.wrong_at_arrival, counts.wrong_at_end,
+              1000 * counts.rmse_at_end_m, 1000 * counts.rmse_at_arrival_m);
+}
+
+// Each shot's centre error after the Sim3 that `errors` found.
+void SetErrors(const std::optional<PositionErrors>& errors,
+               const std::map<std::string, Eigen::Vector3d>& estimated,
+               const std::map<std::string, Eigen::Vector3d>& truth,
+               std::optional<double> ShotOutcome::*error, std::vector<ShotOutcome>* shots) {
+  if (!errors) return;
+  for (ShotOutcome& shot : *shots) {
+    const auto it = estimated.find(shot.name);
+    if (it == estimated.end()) continue;
+    shot.*error = (errors->reference_from_estimate * it->second - truth.at(shot.name)).norm();
+  }
+}
+
+double SceneSize(const std::map<std::string, Eigen::Vector3d>& truth) {
+  double size = 0;
+  for (const auto& [a, pa] : truth) {
+    for (const auto& [b, pb] : truth) size = std::max(size, (pa - pb).norm());
+  }
+  return size;
+}
+
+nlohmann::json RunScenario(const Flags& flags, const fs::path& work, const Scenario& scenario,
+                           const std::string& camera_text) {
+  const int width = PhotoWidth(flags.megapixels);
+  const Camera camera = Camera::FromString(camera_text, width, width * 2 / 3);
+  // Render, and gather each photographer's frames and the truth.
+  std::map<std::string, Eigen::Vector3d> truth;  // by run name
+  std::map<std::string, std::string> source_of;
+  std::vector<std::unique_ptr<FrameListSource>> lists;
+  std::vector<MergedSource::Input> inputs;
+  std::vector<std::string> tags;
+  std::vector<double> render_ms;
+  for (const Photographer& walker : scenario.photographers) {
+    const fs::path dir = WalkerFolder(work, scenario, walker);
+    const std::map<std::string, Eigen::Vector3d> centres =
+        RenderWalker(flags, dir, camera, walker, &render_ms);
+    std::vector<Frame> frames;
+    for (std::size_t i = 0; i < walker.stops.size(); ++i) {
+      Frame frame;
+      frame.name = walker.stops[i].name;
+      frame.path = dir / frame.name;
+      frame.timestamp = walker.capture_s[i];
+      frames.push_back(frame);
+      const std::string name = RunName(scenario, walker, frame.name);
+      truth[name] = centres.at(frame.name);
+      source_of[name] = walker.tag;
+    }
+    lists.push_back(std::make_unique<FrameListSource>(std::move(frames)));
+    inputs.push_back({walker.tag.empty() ? "shots" : walker.tag, lists.back().get()});
+    if (scenario.photographers.size() > 1) tags.push_back(walker.tag);
+  }
+  if (!render_ms.empty()) {
+    std::printf("render: %zu photos rendered (median %.0f ms each, one core), the others "
+                "reused\n",
+                render_ms.size(), Median(render_ms));
+  }
+  MergedSourceOptions merge;
+  merge.order = MergedSourceOptions::Order::kCaptureTime;
+  MergedSource source(inputs, merge);
+
+  std::printf("\n%s: %zu photographer%s, %zu shots\n", scenario.name.c_str(),
+              scenario.photographers.size(), scenario.photographers.size() > 1 ? "s" : "",
+              truth.size());
+  std::fflush(stdout);
+  Engine engine(Engine::Options(), Camera::FromString(camera_text, 0, 0));
+  bench::SessionOptions options;
+  options.run.print = false;
+  options.run.between_images = RunLoop::Options::BetweenImages::kNothing;
+  options.run.sources = tags;
+  int index = 0;
+  options.on_image = [&](const Engine&, const std::vector<ImageResult>& out,
+                         const StageTimes& times, double engine_ms) {
+    // The engine call's other results are waiting shots it let register.
+    std::printf("[%4d] %-22s %-10s all stages %6.0f ms, engine %6.0f ms, %2d/%2d pairs, "
+                "model %d img, %zu waiting registered with it\n",
+                ++index, out.front().name.c_str(), ImageStatusName(out.front().status),
+                times.total, engine_ms, out.front().num_verified_pairs,
+                out.front().num_candidates, out.back().model_images, out.size() - 1);
+    std::fflush(stdout);
+  };
+  const bench::Session session = bench::RunSession(&engine, &source, options);
+
+  // Each shot's outcome, in arrival order.
+  std::vector<ShotOutcome> shots;
+  std::map<std::string, std::size_t> shot_index;
+  for (std::size_t i = 0; i < session.run.calls.size(); ++i) {
+    ShotOutcome shot;
+    shot.name = session.run.calls[i].name;
+    shot.source = source_of.at(shot.name);
+    shot.all_stages_ms = i < session.all_stages_ms.size() ? session.all_stages_ms[i] : 0;
+    shot_index[shot.name] = shots.size();
+    shots.push_back(shot);
+  }
+  std::map<std::string, Eigen::Vector3d> at_arrival;
+  for (const RunLoop::Reported& reported : session.run.results) {
+    if (!reported.arriving_image || reported.result.status != ImageStatus::kRegistered) continue;
+    ShotOutcome& shot = shots.at(shot_index.at(reported.result.name));
+    shot.posed_at_arrival = true;
+    at_arrival[shot.name] = ProjectionCenter(*reported.result.cam_from_world);
+  }
+  const Reconstruction& model = engine.reconstruction();
+  std::map<std::string, Eigen::Vector3d> at_end;
+  for (const auto& [id, image] : model.images()) {
+    if (!image.IsRegistered() || !shot_index.count(image.name)) continue;
+    shots[shot_index.at(image.name)].posed_at_end = true;
+    at_end[image.name] = ProjectionCenter(*image.cam_from_world);
+  }
+  // The final model's centres through the project's evaluation; the poses
+  // at arrival (one model today, so one frame) aligned the same way.
+  const std::optional<PositionErrors> end_errors = CompareCentersByName(model, truth);
+  std::vector<Eigen::Vector3d> estimated, reference;
+  for (const auto& [name, centre] : at_arrival) {
+    estimated.push_back(centre);
+    reference.push_back(truth.at(name));
+  }
+  const std::optional<PositionErrors> arrival_errors =
+      ComparePositionsAfterSim3(estimated, reference);
+  SetErrors(end_errors, at_end, truth, &ShotOutcome::error_at_end_m, &shots);
+  SetErrors(arrival_errors, at_arrival, truth, &ShotOutcome::error_at_arrival_m, &shots);
+
+  const double scene_size = SceneSize(truth);
+  const double wrong_m = 0.05 * scene_size;
+  std::vector<const ShotOutcome*> all;
+  for (const ShotOutcome& shot : shots) all.push_back(&shot);
+  const Counts counts = Count(all, wrong_m);
+  // The engine keeps one model and has no count of models to read.
+  const int models = 1;
+  const double median_ms = Median(session.all_stages_ms);
+
+  std::printf("\n%s: %d shots, %d posed at arrival, %d at the end (%zu in the model, %zu "
+              "pending); longest stretch without a pose at arrival %d; wrong (centre off by "
+              "more than 5 %% of the scene, %.2f m of %.1f m) at arrival %d, at the end %d; "
+              "centre RMSE after Sim3 %.2f mm at the end (%d compared), %.2f mm at arrival; "
+              "all stages median %.0f ms per shot; models %d (the engine keeps one)\n",
+              scenario.name.c_str(), counts.shots, counts.posed_at_arrival, counts.posed_at_end,
+              model.NumRegisteredImages(), engine.PendingImageNames().size(),
+              counts.longest_unposed, wrong_m, scene_size, counts.wrong_at_arrival,
+              counts.wrong_at_end, 1000 * counts.rmse_at_end_m,
+              end_errors ? end_errors->num_compared : 0, 1000 * counts.rmse_at_arrival_m,
+              median_ms, models);
+  nlohmann::json sources = nlohmann::json::array();
+  for (const Photographer& walker : scenario.photographers) {
+    std::vector<const ShotOutcome*> own;
+    for (const ShotOutcome& shot : shots) {
+      if (shot.source == walker.tag) own.push_back(&shot);
+    }
+    const Counts walker_counts = Count(own, wrong_m);
+    const std::string label = walker.tag.empty() ? "photographer" : "source " + walker.tag;
+    PrintCounts(label.c_str(), walker_counts);
+    nlohmann::json json = CountsJson(walker_counts);
+    json["source"] = walker.tag;
+    sources.push_back(json);
+  }
+  bench::PrintSessionFigures(session, ("  " + scenario.name).c_str());
+
+  // Each shot in arrival order: what a script needs to see where the
+  // stretches without a pose fall.
+  nlohmann::json shot_list = nlohmann::json::array();
+  for (const ShotOutcome& shot : shots) {
+    shot_list.push_back({{"name", shot.name},
+                         {"source", shot.source},
+                         {"posed_at_arrival", shot.posed_at_arrival},
+                         {"posed_at_end", shot.posed_at_end},
+                         {"error_at_arrival_m", shot.error_at_arrival_m.value_or(-1.0)},
+                         {"error_at_end_m", shot.error_at_end_m.value_or(-1.0)}});
+  }
+  nlohmann::json json = CountsJson(counts);
+  json.update({{"scenario", scenario.name},
+               {"photographers", scenario.photographers.size()},
+               {"models", models},
+               {"models_read_from_engine", false},
+               {"scene_size_m", scene_size},
+               {"wrong_threshold_m", wrong_m},
+               {"compared_at_end", end_errors ? end_errors->num_compared : 0},
+               {"all_stages_median_ms", median_ms},
+               {"sources", sources},
+               {"shot_outcomes", shot_list},
+               {"session", bench::SessionJson(session)}});
+  return json;
+}
+
+int Main(const Flags& flags) {
+  // As flysfm, before any thread starts: the engine as it runs there.
+  const bool malloc_policy = !flags.glibc_malloc_defaults && ApplyMallocPolicy();
+  const fs::path work = !flags.work.empty()
+                            ? fs::path(flags.work)
+                            : fs::temp_directory_path() /
+                                  ("bench_agents_" + std::to_string(::getpid()));
+  const int width = PhotoWidth(flags.megapixels);
+  const std::string camera_text = PhotoSessionCamera(width);
+  const Camera camera = Camera::FromString(camera_text, width, width * 2 / 3);
+  std::printf("bench_agents: %s; K given (%s, %dx%d); ring of %d shots %.2f deg apart with a "
+              "gap of %.0f deg; seed %d; photos in %s\n",
+              [&] {
+                std::string list;
+                for (const std::string& s : flags.scenarios) list += (list.empty() ? "" : ",") + s;
+                return list;
+              }()
+                  .c_str(),
+              camera_text.c_str(), camera.width, camera.height, flags.num_photos,
+              StepDeg(flags), flags.gap_deg, flags.seed, work.c_str());
+  std::fflush(stdout);
+  std::vector<Scenario> scenarios;
+  for (const std::string& name : flags.scenarios) {
+    if (name == "ring") {
+      for (Scenario& ring : RingScenarios(flags)) scenarios.push_back(std::move(ring));
+    } else if (name == "agents") {
+      scenarios.push_back(AgentsScenario(flags));
+    } else if (name == "two") {
+      scenarios.push_back(TwoScenario(flags));
+    }
+  }
+  nlohmann::json runs = nlohmann::json::array();
+  for (const Scenario& scenario : scenarios) {
+    runs.push_back(RunScenario(flags, work, scenario, camera_text));
+  }
+
+  std::printf("\n%-14s %6s %10s %8s %10s %6s %17s %10s %7s\n", "run", "shots", "at arrival",
+              "at end", "longest", "wrong", "centre RMSE (mm)", "median", "models");
+  for (const nlohmann::json& run : runs) {
+    std::printf("%-14s %6d %10d %8d %10d %3d/%-2d %8.2f (%5.2f) %7.0f ms %7d\n",
+                run["scenario"].get<std::string>().c_str(), run["shots"].get<int>(),
+                run["posed_at_arrival"].get<int>(), run["posed_at_end"].get<int>(),
+                run["longest_unposed_at_arrival"].get<int>(), run["wrong_at_arrival"].get<int>(),
+                run["wrong_at_end"].get<int>(), 1000 * run["center_rmse_m"].get<double>(),
+                1000 * run["arrival_center_rmse_m"].get<double>(),
+                run["all_stages_median_ms"].get<double>(), run["models"].get<int>());
+  }
+  std::printf("(posed at arrival and at the end; longest stretch without a pose at arrival; "
+              "wrong at arrival/at the end; centre RMSE at the end (at arrival); all stages "
+              "median per shot; models: the engine keeps one and has no count)\n");
+  const nlohmann::json json = {{"bench", "agents"},
+                               {"width", camera.width},
+                               {"height", camera.height},
+                               {"megapixels", flags.megapixels},
+                               {"ring_photos", flags.num_photos},
+                               {"step_deg", StepDeg(flags)},
+                               {"gap_deg", flags.gap_deg},
+                               {"seed", flags.seed},
+                               {"malloc_policy", malloc_policy},
+                               {"runs", runs}};
+  std::cout << json.dump() << "\n";
+  if (flags.work.empty()) fs::remove_all(work);
+  return 0;
+}
+
+}  // namespace
+}  // namespace flysfm
+
+int main(int argc, char** argv) {
+  using namespace flysfm;
+  Flags flags;
+  CLI::App app("Every shot posed at its arrival? A ring with a gap, and several photographers");
+  app.add_option("--scenarios", flags.scenarios, "Any of ring, agents, two")
+      ->delimiter(',')
+      ->check(CLI::IsMember({"ring", "agents", "two"}))
+      ->capture_default_str();
+  app.add_option("--photos", flags.num_photos,
+                 "Shots of the ring (their step is every walk's)")
+      ->check(CLI::Range(6, 1000))
+      ->capture_default_str();
+  app.add_option("--gap-deg", flags.gap_deg, "The ring's gap between two consecutive shots")
+      ->check(CLI::Range(0.0, 180.0))
+      ->capture_default_str();
+  app.add_option("--megapixels", flags.megapixels, "Photo size (3:2; 6 is 3000x2000)")
+      ->check(CLI::Range(0.05, 60.0))
+      ->capture_default_str();
+  app.add_option("--seed", flags.seed, "Jitter and texture seed")->capture_default_str();
+  app.add_option("--supersampling", flags.supersampling, "Render supersampling")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_option("--work", flags.work, "Keep the rendered JPEGs here and reuse them");
+  app.add_flag("--glibc-malloc-defaults", flags.glibc_malloc_defaults,
+               "Leave the allocator as glibc sets it (core/malloc_policy.h's baseline)");
+  CLI11_PARSE(app, argc, argv);
+  return Main(flags);
+}

@@ -1,0 +1,101 @@
+// bench_agents as a process on its smallest ring (25 shots 7.5 deg apart with
+// a gap of 180 deg, 0.3 MP): each run's figures agree with its shots'
+// outcomes, and with what the scene's ground truth says of any engine.
+
+#include <algorithm>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <string>
+
+#include <catch2/catch.hpp>
+#include <nlohmann/json.hpp>
+
+#include "tests/testing/sanitizer.h"
+#include "tests/testing/skip.h"
+#include "tests/testing/temp_dir.h"
+
+namespace flysfm {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr int kShots = 25;
+
+// The benchmark's last line: its figures as JSON.
+nlohmann::json RunBench(const fs::path& dir) {
+  const fs::path output = dir / "output.txt";
+  const std::string command = std::string(FLYSFM_BENCH_AGENTS) +
+                              " --scenarios ring --photos " + std::to_string(kShots) +
+                              " --gap-deg 180 --megapixels 0.3 --work " +
+                              (dir / "photos").string() + " > " + output.string() + " 2>&1";
+  const int status = std::system(command.c_str());
+  std::ifstream in(output);
+  std::string line, last;
+  while (std::getline(in, line)) {
+    if (!line.empty()) last = line;
+  }
+  INFO("bench_agents' last line: " << last);
+  REQUIRE(status == 0);
+  return nlohmann::json::parse(last);
+}
+
+TEST_CASE("bench_agents' ring: its counts are its shots' and the closed ring poses every shot") {
+  if (testing::kSanitizerBuild) {
+    // Two runs of the engine on 25 photos take minutes there; the engine's
+    // own end-to-end tests run under the sanitizers.
+    testing::SkipInThisBuild("a benchmark's run, too slow under a sanitizer");
+  }
+  const nlohmann::json bench = RunBench(testing::MakeTempDir("bench_agents"));
+  const nlohmann::json& runs = bench.at("runs");
+  REQUIRE(runs.size() == 2);
+  CHECK(runs[0].at("scenario") == "ring forward");
+  CHECK(runs[1].at("scenario") == "ring reversed");
+  for (const nlohmann::json& run : runs) {
+    INFO(run.at("scenario").get<std::string>());
+    const nlohmann::json& shots = run.at("shot_outcomes");
+    REQUIRE(run.at("shots") == kShots);
+    REQUIRE(shots.size() == std::size_t(kShots));
+    // Every photo once, in the order walked.
+    std::vector<std::string> names;
+    for (const nlohmann::json& shot : shots) names.push_back(shot.at("name"));
+    CHECK(std::set<std::string>(names.begin(), names.end()).size() == std::size_t(kShots));
+    if (run.at("scenario") == "ring forward") {
+      CHECK(std::is_sorted(names.begin(), names.end()));
+    } else {
+      CHECK(std::is_sorted(names.rbegin(), names.rend()));
+    }
+    // The counts are those of the shots' outcomes.
+    int at_arrival = 0, at_end = 0, unposed = 0, longest = 0;
+    for (const nlohmann::json& shot : shots) {
+      const bool posed = shot.at("posed_at_arrival");
+      at_arrival += posed;
+      at_end += shot.at("posed_at_end").get<bool>();
+      unposed = posed ? 0 : unposed + 1;
+      longest = std::max(longest, unposed);
+      // A pose at arrival has an error at arrival, and only then.
+      CHECK((shot.at("error_at_arrival_m").get<double>() >= 0) == posed);
+    }
+    CHECK(run.at("posed_at_arrival") == at_arrival);
+    CHECK(run.at("posed_at_end") == at_end);
+    CHECK(run.at("longest_unposed_at_arrival") == longest);
+    REQUIRE(run.at("sources").size() == 1);
+    CHECK(run.at("sources")[0].at("posed_at_arrival") == at_arrival);
+    // No engine poses the first photo alone.
+    CHECK_FALSE(shots[0].at("posed_at_arrival").get<bool>());
+    // Each shot overlaps its neighbours on the ring but across the gap, so
+    // by the end every one has a pose, none of them wrong, and the centres
+    // are those of the ground truth to far better than the wrong bound
+    // (5 % of the 40 m ring; 0.3 MP photos give a few millimetres).
+    CHECK(run.at("posed_at_end") == kShots);
+    CHECK(run.at("wrong_at_arrival") == 0);
+    CHECK(run.at("wrong_at_end") == 0);
+    CHECK(run.at("scene_size_m").get<double>() == Approx(40.0).margin(1.5));
+    CHECK(run.at("center_rmse_m").get<double>() < 0.002 * run.at("scene_size_m").get<double>());
+    CHECK(run.at("models") == 1);
+  }
+}
+
+}  // namespace
+}  // namespace flysfm
