@@ -43,6 +43,7 @@ void QualityTracker::RecomputePoint(const Reconstruction& reconstruction,
   squared_error_sum_ += cached.quality.squared_error_sum;
   num_observations_ += std::size_t(cached.quality.views);
   ++counters_.last_recomputed_points;
+  last_recomputed_points_.push_back(point3D_id);
 }
 
 namespace {
@@ -67,6 +68,7 @@ double QualityTracker::Update(const Reconstruction& reconstruction,
   const auto start = std::chrono::steady_clock::now();
   counters_.last_recomputed_points = 0;
   counters_.last_recomputed_images = 0;
+  last_recomputed_points_.clear();
   if (changes.changed_cameras) {
     // Intrinsics move every projection: all of it again (a global BA's
     // change, which cost the model's size already).

@@ -88,6 +88,10 @@ class QualityTracker {
   std::vector<std::pair<image_t, ImageQuality>> Images() const;
   // O(points + images): taken when the files are written.
   Summary Summarize() const;
+  // The points the last Update or Rebuild measured again, in id order: the
+  // live view resends their measures (an image's pose moved changes its
+  // points' angles, not their positions).
+  const std::vector<point3D_t>& LastRecomputedPoints() const { return last_recomputed_points_; }
 
   const Options& options() const { return options_; }
 
@@ -109,6 +113,7 @@ class QualityTracker {
   double squared_error_sum_ = 0;
   std::size_t num_observations_ = 0;
   Summary counters_;
+  std::vector<point3D_t> last_recomputed_points_;
 };
 
 }  // namespace flysfm

@@ -8,10 +8,40 @@
 #include <nlohmann/json.hpp>
 
 #include "io/formats/colmap_model.h"
+#include "quality/quality_tracker.h"
 #include "tools/commands.h"
 #include "tools/view_flags.h"
 
 namespace flysfm {
+namespace {
+
+// The quality options a run wrote into summary.json ("quality"); the
+// defaults for what it does not say (an older or a hand-made folder).
+QualityTracker::Options QualityOptionsOf(const nlohmann::json& summary) {
+  QualityTracker::Options options;
+  if (!summary.contains("quality") || !summary["quality"].is_object()) return options;
+  const nlohmann::json& quality = summary["quality"];
+  if (quality.contains("sigma_px") && quality["sigma_px"].is_number()) {
+    options.sigma_px = quality["sigma_px"].get<double>();
+  }
+  if (quality.value("sigma_source", "") == "model-rms") {
+    options.sigma_source = QualityTracker::Options::Sigma::kModelRms;
+  }
+  if (quality.contains("min_views") && quality["min_views"].is_number_integer()) {
+    options.min_views = quality["min_views"].get<int>();
+  }
+  if (quality.contains("min_angle_deg") && quality["min_angle_deg"].is_number()) {
+    options.min_angle_deg = quality["min_angle_deg"].get<double>();
+  }
+  try {
+    options.Check();
+  } catch (const std::invalid_argument&) {
+    return QualityTracker::Options();  // a damaged summary: the defaults
+  }
+  return options;
+}
+
+}  // namespace
 
 void AddViewCommand(CLI::App& app) {
   struct Flags {
@@ -42,20 +72,24 @@ void AddViewCommand(CLI::App& app) {
       view_flags.port = flags->port;
       view_flags.lan = flags->lan;
       const std::unique_ptr<ViewServer> server = StartView(view_flags);
-      ViewUpdate update = MakeFullViewUpdate(model);
-      // The images the run left waiting, from its summary (no reasons kept there).
       std::ifstream summary_file(std::filesystem::path(flags->out) / "summary.json");
-      if (summary_file) {
-        const nlohmann::json summary = nlohmann::json::parse(summary_file, nullptr, false);
-        if (summary.is_object() && summary.contains("pending") && summary["pending"].is_array()) {
-          for (const nlohmann::json& name : summary["pending"]) {
-            if (!name.is_string()) continue;
-            ViewLine line;
-            line.name = name.get<std::string>();
-            line.status = ImageStatusName(ImageStatus::kPending);
-            line.reason = "still pending when the run ended";
-            update.lines.push_back(line);
-          }
+      nlohmann::json summary;
+      if (summary_file) summary = nlohmann::json::parse(summary_file, nullptr, false);
+      if (!summary.is_object()) summary = nlohmann::json::object();
+      // The model measured as the run measured it, so that the page's
+      // coverage agrees with its summary.json.
+      QualityTracker quality(QualityOptionsOf(summary));
+      quality.Rebuild(model);
+      ViewUpdate update = MakeFullViewUpdate(model, &quality);
+      // The images the run left waiting, from its summary (no reasons kept there).
+      if (summary.contains("pending") && summary["pending"].is_array()) {
+        for (const nlohmann::json& name : summary["pending"]) {
+          if (!name.is_string()) continue;
+          ViewLine line;
+          line.name = name.get<std::string>();
+          line.status = ImageStatusName(ImageStatus::kPending);
+          line.reason = "still pending when the run ended";
+          update.lines.push_back(line);
         }
       }
       server->Publish(update);

@@ -179,7 +179,16 @@ std::optional<double> RunState::TakeChanges() {
   const Reconstruction::Changes changes = engine_->TakeReconstructionChanges();
   if (view_) view_changes_.Merge(changes);
   if (!quality_) return std::nullopt;
-  return quality_->Update(engine_->reconstruction(), changes);
+  const double ms = quality_->Update(engine_->reconstruction(), changes);
+  if (view_) {
+    // Points whose measures moved without their positions (an observing
+    // image's pose moved): the page's colouring must follow.
+    Reconstruction::Changes remeasured;
+    const std::vector<point3D_t>& ids = quality_->LastRecomputedPoints();
+    remeasured.changed_points.insert(ids.begin(), ids.end());
+    view_changes_.Merge(remeasured);
+  }
+  return ms;
 }
 
 // Each step's changes to the model, as the page draws them (docs/view.md).
@@ -187,7 +196,7 @@ void RunState::PublishView() {
   if (!view_) return;
   TakeChanges();
   view_->Publish(MakeViewUpdate(engine_->reconstruction(), std::move(view_changes_),
-                                std::move(view_lines_)));
+                                std::move(view_lines_), quality_.get()));
   view_changes_ = Reconstruction::Changes();
   view_lines_.clear();
 }
@@ -453,7 +462,7 @@ RunLoop::Summary RunState::Go(ImageSource* source) {
   // A resumed run's model so far: measured and published as a whole.
   if (quality_ || view_) engine_->TakeReconstructionChanges();
   if (quality_) quality_->Rebuild(engine_->reconstruction());
-  if (view_) view_->Publish(MakeFullViewUpdate(engine_->reconstruction()));
+  if (view_) view_->Publish(MakeFullViewUpdate(engine_->reconstruction(), quality_.get()));
   ImageSource* input = source;
   if (!options_.out.empty()) {
     // Declared before the prepared source, so that they outlive the prefetch.

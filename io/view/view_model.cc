@@ -1,7 +1,9 @@
 #include "io/view/view_model.h"
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <limits>
 
 #include <nlohmann/json.hpp>
 
@@ -26,13 +28,29 @@ std::vector<ViewIntrinsics> AllIntrinsics(const Reconstruction& model) {
   return all;
 }
 
-void AppendPoint(const Reconstruction& model, point3D_t id, ViewUpdate* update) {
+void AppendQuality(const PointQuality& measures, ViewPointQuality* quality) {
+  quality->views.push_back(std::uint16_t(std::clamp(measures.views, 0, 65535)));
+  quality->max_angle_deg.push_back(float(measures.max_angle_deg));
+  quality->sigma.push_back(
+      float(measures.sigma.value_or(std::numeric_limits<double>::quiet_NaN())));
+}
+
+void AppendPoint(const Reconstruction& model, point3D_t id, const QualityTracker* quality,
+                 ViewUpdate* update) {
   const Point3D& point = model.point3D(id);
   update->point_ids.push_back(id);
   for (int k = 0; k < 3; ++k) {
     update->xyz.push_back(float(point.xyz[k]));
     update->rgb.push_back(point.color[k]);
   }
+  if (!quality) return;
+  const std::optional<PointQuality> measures = quality->Point(id);
+  AppendQuality(measures ? *measures : PointQuality(), &update->quality);
+}
+
+std::optional<ViewCoverageRule> CoverageRule(const QualityTracker* quality) {
+  if (!quality) return std::nullopt;
+  return ViewCoverageRule{quality->options().min_views, quality->options().min_angle_deg};
 }
 
 // Numbers written by hand: a model message holds millions of them, and
@@ -75,16 +93,35 @@ void AppendFloats(const char* key, const std::vector<float>& values, std::string
 }
 
 // "points":{"ids":[...],"xyz":[...],"rgb":[...]}, as model and update
-// messages both carry them.
+// messages both carry them, with "views", "angle" and "sigma" (null:
+// undefined) when the points were measured.
 template <typename Id, typename Colour>
 void AppendPoints(const std::vector<Id>& ids, const std::vector<float>& xyz,
-                  const std::vector<Colour>& rgb, std::string* out) {
+                  const std::vector<Colour>& rgb, const ViewPointQuality& quality,
+                  std::string* out) {
   *out += "\"points\":{";
   AppendIntegers("ids", ids, out);
   *out += ',';
   AppendFloats("xyz", xyz, out);
   *out += ',';
   AppendIntegers("rgb", rgb, out);
+  if (!quality.empty()) {
+    *out += ',';
+    AppendIntegers("views", quality.views, out);
+    *out += ',';
+    AppendFloats("angle", quality.max_angle_deg, out);
+    *out += ',';
+    AppendFloats("sigma", quality.sigma, out);
+  }
+  *out += '}';
+}
+
+// "coverage":{"min_views":3,"min_angle_deg":10}, when the points are measured.
+void AppendCoverageRule(const std::optional<ViewCoverageRule>& rule, std::string* out) {
+  if (!rule) return;
+  *out += ",\"coverage\":{\"min_views\":" + std::to_string(rule->min_views) +
+          ",\"min_angle_deg\":";
+  AppendNumber(rule->min_angle_deg, out);
   *out += '}';
 }
 
@@ -191,9 +228,10 @@ ViewLine MakeViewLine(const ImageResult& result, std::optional<double> delay_ms,
 }
 
 ViewUpdate MakeViewUpdate(const Reconstruction& model, const Reconstruction::Changes& changes,
-                          std::vector<ViewLine> lines) {
+                          std::vector<ViewLine> lines, const QualityTracker* quality) {
   ViewUpdate update;
   update.lines = std::move(lines);
+  update.coverage_rule = CoverageRule(quality);
   for (const image_t id : changes.changed_images) {
     if (!model.ExistsImage(id)) continue;
     const Image& image = model.image(id);
@@ -208,36 +246,63 @@ ViewUpdate MakeViewUpdate(const Reconstruction& model, const Reconstruction::Cha
   update.point_ids.reserve(num_points);
   update.xyz.reserve(3 * num_points);
   update.rgb.reserve(3 * num_points);
-  for (const point3D_t id : changes.added_points) AppendPoint(model, id, &update);
-  for (const point3D_t id : changes.changed_points) AppendPoint(model, id, &update);
+  for (const point3D_t id : changes.added_points) AppendPoint(model, id, quality, &update);
+  for (const point3D_t id : changes.changed_points) AppendPoint(model, id, quality, &update);
   update.removed_points.assign(changes.removed_points.begin(), changes.removed_points.end());
   update.num_images = int(model.NumRegisteredImages());
   update.num_points = int(model.NumPoints3D());
   return update;
 }
 
-ViewUpdate MakeFullViewUpdate(const Reconstruction& model) {
+ViewUpdate MakeFullViewUpdate(const Reconstruction& model, const QualityTracker* quality) {
   ViewUpdate update;
+  update.coverage_rule = CoverageRule(quality);
   for (const image_t id : model.RegisteredImageIds()) {
     update.cameras.push_back(MakeViewCamera(model.image(id)));
   }
   update.intrinsics = AllIntrinsics(model);
-  for (const auto& [id, point] : model.points3D()) AppendPoint(model, id, &update);
+  for (const auto& [id, point] : model.points3D()) AppendPoint(model, id, quality, &update);
   update.num_images = int(model.NumRegisteredImages());
   update.num_points = int(model.NumPoints3D());
   return update;
 }
 
-void ViewModel::SetPoint(point3D_t id, const float* xyz, const std::uint8_t* rgb) {
-  const auto [it, added] = slot_.emplace(id, snapshot_.point_ids.size());
+void ViewModel::SetPoint(const ViewUpdate& update, std::size_t i) {
+  const float* xyz = &update.xyz[3 * i];
+  const std::uint8_t* rgb = &update.rgb[3 * i];
+  ViewPointQuality& quality = snapshot_.quality;
+  // Measures are kept once any update carried them; a point sent without
+  // them (none in a run that measures) counts as seen by none.
+  const bool measured = !update.quality.empty();
+  if (measured && quality.empty() && !snapshot_.point_ids.empty()) {
+    quality.views.assign(snapshot_.point_ids.size(), 0);
+    quality.max_angle_deg.assign(snapshot_.point_ids.size(), 0.0f);
+    quality.sigma.assign(snapshot_.point_ids.size(), std::numeric_limits<float>::quiet_NaN());
+  }
+  const bool keep = measured || !quality.empty();
+  const std::uint16_t views = measured ? update.quality.views[i] : 0;
+  const float angle = measured ? update.quality.max_angle_deg[i] : 0.0f;
+  const float sigma = measured ? update.quality.sigma[i] : std::numeric_limits<float>::quiet_NaN();
+  const auto [it, added] = slot_.emplace(update.point_ids[i], snapshot_.point_ids.size());
   if (added) {
-    snapshot_.point_ids.push_back(id);
+    snapshot_.point_ids.push_back(update.point_ids[i]);
     snapshot_.xyz.insert(snapshot_.xyz.end(), xyz, xyz + 3);
     snapshot_.rgb.insert(snapshot_.rgb.end(), rgb, rgb + 3);
+    if (keep) {
+      quality.views.push_back(views);
+      quality.max_angle_deg.push_back(angle);
+      quality.sigma.push_back(sigma);
+    }
     return;
   }
-  std::copy(xyz, xyz + 3, snapshot_.xyz.begin() + 3 * it->second);
-  std::copy(rgb, rgb + 3, snapshot_.rgb.begin() + 3 * it->second);
+  const std::size_t slot = it->second;
+  std::copy(xyz, xyz + 3, snapshot_.xyz.begin() + 3 * slot);
+  std::copy(rgb, rgb + 3, snapshot_.rgb.begin() + 3 * slot);
+  if (keep) {
+    quality.views[slot] = views;
+    quality.max_angle_deg[slot] = angle;
+    quality.sigma[slot] = sigma;
+  }
 }
 
 void ViewModel::RemovePoint(point3D_t id) {
@@ -245,24 +310,34 @@ void ViewModel::RemovePoint(point3D_t id) {
   if (it == slot_.end()) return;
   const std::size_t slot = it->second;
   const std::size_t last = snapshot_.point_ids.size() - 1;
+  ViewPointQuality& quality = snapshot_.quality;
   if (slot != last) {
     const point3D_t moved = snapshot_.point_ids[last];
     snapshot_.point_ids[slot] = moved;
     std::copy_n(snapshot_.xyz.begin() + 3 * last, 3, snapshot_.xyz.begin() + 3 * slot);
     std::copy_n(snapshot_.rgb.begin() + 3 * last, 3, snapshot_.rgb.begin() + 3 * slot);
+    if (!quality.empty()) {
+      quality.views[slot] = quality.views[last];
+      quality.max_angle_deg[slot] = quality.max_angle_deg[last];
+      quality.sigma[slot] = quality.sigma[last];
+    }
     slot_[moved] = slot;
   }
   snapshot_.point_ids.pop_back();
   snapshot_.xyz.resize(3 * last);
   snapshot_.rgb.resize(3 * last);
+  if (!quality.empty()) {
+    quality.views.resize(last);
+    quality.max_angle_deg.resize(last);
+    quality.sigma.resize(last);
+  }
   slot_.erase(it);
 }
 
 bool ViewModel::Apply(const ViewUpdate& update) {
   for (const point3D_t id : update.removed_points) RemovePoint(id);
-  for (std::size_t i = 0; i < update.point_ids.size(); ++i) {
-    SetPoint(update.point_ids[i], &update.xyz[3 * i], &update.rgb[3 * i]);
-  }
+  for (std::size_t i = 0; i < update.point_ids.size(); ++i) SetPoint(update, i);
+  if (update.coverage_rule) snapshot_.coverage_rule = update.coverage_rule;
   for (const image_t id : update.removed_cameras) snapshot_.cameras.erase(id);
   for (const ViewCamera& camera : update.cameras) snapshot_.cameras[camera.image_id] = camera;
   for (const ViewIntrinsics& k : update.intrinsics) snapshot_.intrinsics[k.camera_id] = k;
@@ -302,7 +377,8 @@ std::string ModelMessage(const ViewSnapshot& snapshot) {
   for (const auto& [id, k] : snapshot.intrinsics) intrinsics.push_back(k);
   AppendIntrinsics(intrinsics, &out);
   out += ',';
-  AppendPoints(snapshot.point_ids, snapshot.xyz, snapshot.rgb, &out);
+  AppendPoints(snapshot.point_ids, snapshot.xyz, snapshot.rgb, snapshot.quality, &out);
+  AppendCoverageRule(snapshot.coverage_rule, &out);
   out += ',';
   AppendNamedReasons("pending", snapshot.pending, &out);
   out += ',';
@@ -338,7 +414,8 @@ std::string UpdateMessage(const ViewUpdate& update, const ViewSnapshot* lists) {
   out += ',';
   AppendIntrinsics(update.intrinsics, &out);
   out += ',';
-  AppendPoints(update.point_ids, update.xyz, update.rgb, &out);
+  AppendPoints(update.point_ids, update.xyz, update.rgb, update.quality, &out);
+  AppendCoverageRule(update.coverage_rule, &out);
   out += ',';
   AppendIntegers("removed_points", update.removed_points, &out);
   if (lists) {

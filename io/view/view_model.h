@@ -19,6 +19,7 @@
 
 #include "core/scene/image_result.h"
 #include "core/scene/reconstruction.h"
+#include "quality/quality_tracker.h"
 
 namespace flysfm {
 
@@ -55,6 +56,23 @@ struct ViewLine {
 ViewLine MakeViewLine(const ImageResult& result, std::optional<double> delay_ms,
                       const std::string& source = "");
 
+// The quality measures the page colours points by (docs/quality.md), one
+// entry per point of the update or snapshot, in the same order; empty when
+// the run measures none.
+struct ViewPointQuality {
+  std::vector<std::uint16_t> views;     // observing images, at most 65535
+  std::vector<float> max_angle_deg;     // largest triangulation angle
+  std::vector<float> sigma;             // positional uncertainty; NaN: undefined
+  bool empty() const { return views.empty(); }
+};
+
+// What "well covered" means for the page's coverage colouring and share: the
+// tracker's options, sent along so that page and summary.json agree.
+struct ViewCoverageRule {
+  int min_views = 0;
+  double min_angle_deg = 0;
+};
+
 // What one step of the engine changed, as the page needs it.
 struct ViewUpdate {
   std::vector<ViewLine> lines;
@@ -65,6 +83,9 @@ struct ViewUpdate {
   std::vector<point3D_t> point_ids;
   std::vector<float> xyz;
   std::vector<std::uint8_t> rgb;
+  // The points' measures, when the run has a quality tracker.
+  ViewPointQuality quality;
+  std::optional<ViewCoverageRule> coverage_rule;
   std::vector<point3D_t> removed_points;
   int num_images = 0;
   int num_points = 0;
@@ -72,11 +93,15 @@ struct ViewUpdate {
 
 // The update for `changes` (Reconstruction::TakeChanges) of `model`, with the
 // lines of the images this step reported. Its cost is that of the changes.
+// With `quality` (brought up to date with the same changes), the points carry
+// their measures, and the points it measured again without their moving are
+// sent too.
 ViewUpdate MakeViewUpdate(const Reconstruction& model, const Reconstruction::Changes& changes,
-                          std::vector<ViewLine> lines);
+                          std::vector<ViewLine> lines, const QualityTracker* quality = nullptr);
 // The whole of `model` as one update: what `flysfm view` serves, and what a
 // run that starts from a resumed model begins with.
-ViewUpdate MakeFullViewUpdate(const Reconstruction& model);
+ViewUpdate MakeFullViewUpdate(const Reconstruction& model,
+                              const QualityTracker* quality = nullptr);
 
 // The view's copy of the model, without its index: what a `model` message is
 // written from. Copying it is copying flat arrays.
@@ -84,6 +109,8 @@ struct ViewSnapshot {
   std::vector<point3D_t> point_ids;
   std::vector<float> xyz;
   std::vector<std::uint8_t> rgb;
+  ViewPointQuality quality;  // every point's, once an update carried them
+  std::optional<ViewCoverageRule> coverage_rule;
   std::map<image_t, ViewCamera> cameras;
   std::map<camera_t, ViewIntrinsics> intrinsics;
   // Image name -> why it waits / why it was rejected.
@@ -105,7 +132,8 @@ class ViewModel {
   const ViewSnapshot& snapshot() const { return snapshot_; }
 
  private:
-  void SetPoint(point3D_t id, const float* xyz, const std::uint8_t* rgb);
+  // `i`: the point's entry in `update`.
+  void SetPoint(const ViewUpdate& update, std::size_t i);
   void RemovePoint(point3D_t id);
 
   ViewSnapshot snapshot_;

@@ -1,9 +1,11 @@
 // The live view in a real browser: `flysfm batch --view` on a rendered scene,
 // the page loaded in headless chromium, and what the page shows compared with
-// the run's summary.json. Screenshots are kept (the path is printed).
+// the run's summary.json, its colourings with the run's quality measures.
+// Screenshots are kept (the path is printed).
 
 #include <signal.h>
 
+#include <array>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -103,6 +105,66 @@ void CheckFinishedPage(testing::HeadlessBrowser& browser, const std::filesystem:
   for (const std::string& error : browser.errors()) FAIL_CHECK("browser: " << error);
 }
 
+// Chooses a colouring as a user does, in the page's menu.
+void ChooseColouring(testing::HeadlessBrowser& browser, const std::string& mode) {
+  browser.Evaluate("(() => { const s = document.getElementById('colouring'); s.value = '" + mode +
+                   "'; s.dispatchEvent(new Event('change')); return s.value; })()");
+}
+
+// The coverage and uncertainty colourings of the finished page: the share of
+// well-covered points is summary.json's, the coverage colours count the same
+// points, each colouring is drawn, and the points' own colours come back.
+void CheckColourings(testing::HeadlessBrowser& browser, const std::filesystem::path& out) {
+  const nlohmann::json summary = nlohmann::json::parse(testing::ReadText(out / "summary.json"));
+  REQUIRE(summary.contains("quality"));
+  const int well_covered = summary["quality"]["well_covered_points"].get<int>();
+  const int points = summary["points"].get<int>();
+  const nlohmann::json state = browser.Evaluate(
+      "(() => { const v = window.flysfmView; return {measured: v.measured, "
+      "wellCovered: v.wellCovered, coverage: document.getElementById('coverage').textContent, "
+      "colours: v.drawnColours()}; })()");
+  INFO("page " << state.dump().substr(0, 400) << "\nsummary " << summary["quality"].dump());
+  REQUIRE(state["measured"] == true);
+  CHECK(state["wellCovered"] == well_covered);
+  CHECK(state["coverage"].get<std::string>().find("Well covered") != std::string::npos);
+  const std::vector<int> own = state["colours"].get<std::vector<int>>();
+  REQUIRE(own.size() == std::size_t(3 * points));
+
+  ChooseColouring(browser, "coverage");
+  browser.Screenshot(ArtifactDir() / "view_coverage.png");
+  const std::vector<int> coverage =
+      browser.Evaluate("window.flysfmView.drawnColours()").get<std::vector<int>>();
+  REQUIRE(coverage.size() == own.size());
+  int green = 0;
+  int other = 0;
+  for (std::size_t i = 0; i < coverage.size(); i += 3) {
+    const std::array<int, 3> c = {coverage[i], coverage[i + 1], coverage[i + 2]};
+    if (c == std::array<int, 3>{40, 200, 70}) {
+      ++green;
+    } else if (c != std::array<int, 3>{255, 150, 20} && c != std::array<int, 3>{230, 40, 40}) {
+      ++other;
+    }
+  }
+  CHECK(green == well_covered);
+  CHECK(other == 0);
+  CHECK(browser.Evaluate("window.flysfmView.colouring") == "coverage");
+
+  ChooseColouring(browser, "uncertainty");
+  browser.Screenshot(ArtifactDir() / "view_uncertainty.png");
+  const std::vector<int> uncertainty =
+      browser.Evaluate("window.flysfmView.drawnColours()").get<std::vector<int>>();
+  CHECK(uncertainty != coverage);
+  CHECK(uncertainty != own);
+  CHECK(browser.Evaluate("document.getElementById('legend').textContent")
+            .get<std::string>()
+            .find("undefined") != std::string::npos);
+
+  ChooseColouring(browser, "colour");
+  CHECK(browser.Evaluate("window.flysfmView.drawnColours()").get<std::vector<int>>() == own);
+  CHECK(browser.Evaluate("window.flysfmView.errors").empty());
+  for (const std::string& error : browser.errors()) FAIL_CHECK("browser: " << error);
+}
+
 struct Run {
   std::filesystem::path dir;
   std::filesystem::path out;
@@ -138,6 +200,7 @@ TEST_CASE("view: a page opened as the run starts ends showing the run's model") 
     testing::HeadlessBrowser browser(chromium, run.dir / "profile");
     browser.Navigate(url);
     CheckFinishedPage(browser, run.out, ArtifactDir() / "view_start.png");
+    CheckColourings(browser, run.out);
   }
   StopBatch(run);
 }

@@ -43,7 +43,12 @@
   let capacity = 0;
   let count = 0;
   let positions = new Float32Array(0);
-  let colors = new Uint8Array(0);
+  let colors = new Uint8Array(0);      // what is drawn: by the colouring chosen
+  let photoColors = new Uint8Array(0); // the points' own colours
+  // The points' quality measures (docs/quality.md), when the run sends them.
+  let views = new Uint16Array(0);
+  let angles = new Float32Array(0);
+  let sigmas = new Float32Array(0);    // NaN: undefined
   let slotIds = [];             // slot -> point id
   const slotOf = new Map();     // point id -> slot
   let dirtyLow = Infinity;
@@ -60,10 +65,22 @@
     while (size < wanted) size *= 2;
     const newPositions = new Float32Array(3 * size);
     const newColors = new Uint8Array(3 * size);
+    const newPhotoColors = new Uint8Array(3 * size);
+    const newViews = new Uint16Array(size);
+    const newAngles = new Float32Array(size);
+    const newSigmas = new Float32Array(size);
     newPositions.set(positions.subarray(0, 3 * count));
     newColors.set(colors.subarray(0, 3 * count));
+    newPhotoColors.set(photoColors.subarray(0, 3 * count));
+    newViews.set(views.subarray(0, count));
+    newAngles.set(angles.subarray(0, count));
+    newSigmas.set(sigmas.subarray(0, count));
     positions = newPositions;
     colors = newColors;
+    photoColors = newPhotoColors;
+    views = newViews;
+    angles = newAngles;
+    sigmas = newSigmas;
     capacity = size;
     geometry.dispose();
     geometry = new THREE.BufferGeometry();
@@ -83,19 +100,95 @@
     if (slot > dirtyHigh) dirtyHigh = slot;
   }
 
-  function setPoint(id, xyz, rgb, i) {
+  // --- colouring: the points' own colour, their coverage, their uncertainty
+  // Coverage follows the run's rule ("coverage" in the messages): well
+  // covered (green) with at least min_views images and a largest angle of
+  // min_angle_deg; enough images at too narrow an angle (orange); too few
+  // images (red). Uncertainty: log sigma from green (the model's 5th
+  // percentile) through yellow to red (its 95th); undefined in magenta.
+  let colouring = 'colour';
+  let rule = null;            // {min_views, min_angle_deg}
+  let wellCovered = 0;        // points well covered, kept per point set/removed
+  let rampLow = 0;            // log10 sigma at green
+  let rampHigh = 1;           // log10 sigma at red
+  let rampCount = -1;         // the point count the ramp was fitted at
+
+  function isWell(slot) {
+    return rule !== null && views[slot] >= rule.min_views && angles[slot] >= rule.min_angle_deg;
+  }
+
+  function paint(slot) {
+    const o = 3 * slot;
+    let r = photoColors[o], g = photoColors[o + 1], b = photoColors[o + 2];
+    if (colouring === 'coverage' && rule !== null) {
+      if (isWell(slot)) { r = 40; g = 200; b = 70; }
+      else if (views[slot] >= rule.min_views) { r = 255; g = 150; b = 20; }
+      else { r = 230; g = 40; b = 40; }
+    } else if (colouring === 'uncertainty') {
+      const sigma = sigmas[slot];
+      if (!(sigma > 0)) {
+        r = 220; g = 60; b = 220;
+      } else {
+        const t = Math.min(1, Math.max(0, (Math.log10(sigma) - rampLow) /
+                                              Math.max(1e-9, rampHigh - rampLow)));
+        // green -> yellow -> red
+        r = Math.round(t < 0.5 ? 510 * t : 255);
+        g = Math.round(t < 0.5 ? 200 + 110 * t : 255 * (2 - 2 * t));
+        b = 40;
+      }
+    }
+    colors[o] = r; colors[o + 1] = g; colors[o + 2] = b;
+  }
+
+  // The ramp from about 2000 sigmas spread over the slots: its cost does not
+  // grow with the model.
+  function fitRamp() {
+    const sample = [];
+    const step = Math.max(1, Math.floor(count / 2000));
+    for (let i = 0; i < count; i += step) {
+      if (sigmas[i] > 0) sample.push(Math.log10(sigmas[i]));
+    }
+    rampCount = count;
+    if (sample.length === 0) return;
+    sample.sort(function (p, q) { return p - q; });
+    rampLow = sample[Math.floor(0.05 * (sample.length - 1))];
+    rampHigh = sample[Math.ceil(0.95 * (sample.length - 1))];
+    state.uncertaintyRange = [Math.pow(10, rampLow), Math.pow(10, rampHigh)];
+  }
+
+  function paintAll() {
+    for (let slot = 0; slot < count; ++slot) paint(slot);
+    dirtyLow = 0;
+    dirtyHigh = count - 1;
+  }
+
+  function setPoint(points, i) {
+    const id = points.ids[i];
     let slot = slotOf.get(id);
     if (slot === undefined) {
       if (count === capacity) allocate(count + 1);
       slot = count++;
       slotOf.set(id, slot);
       slotIds[slot] = id;
+    } else if (isWell(slot)) {
+      --wellCovered;
     }
     for (let k = 0; k < 3; ++k) {
-      const value = xyz[3 * i + k];
+      const value = points.xyz[3 * i + k];
       positions[3 * slot + k] = value === null ? 0 : value;
-      colors[3 * slot + k] = rgb[3 * i + k];
+      photoColors[3 * slot + k] = points.rgb[3 * i + k];
     }
+    if (points.views) {
+      views[slot] = points.views[i];
+      angles[slot] = points.angle[i] === null ? 0 : points.angle[i];
+      sigmas[slot] = points.sigma[i] === null ? NaN : points.sigma[i];
+    } else {
+      views[slot] = 0;
+      angles[slot] = 0;
+      sigmas[slot] = NaN;
+    }
+    if (isWell(slot)) ++wellCovered;
+    paint(slot);
     touch(slot);
   }
 
@@ -103,10 +196,16 @@
     const slot = slotOf.get(id);
     if (slot === undefined) return;
     const last = count - 1;
+    if (slot === last && isWell(slot)) --wellCovered;
     if (slot !== last) {
       const moved = slotIds[last];
+      if (isWell(slot)) --wellCovered;
       positions.copyWithin(3 * slot, 3 * last, 3 * last + 3);
       colors.copyWithin(3 * slot, 3 * last, 3 * last + 3);
+      photoColors.copyWithin(3 * slot, 3 * last, 3 * last + 3);
+      views[slot] = views[last];
+      angles[slot] = angles[last];
+      sigmas[slot] = sigmas[last];
       slotIds[slot] = moved;
       slotOf.set(moved, slot);
       touch(slot);
@@ -120,6 +219,7 @@
     slotOf.clear();
     slotIds = [];
     count = 0;
+    wellCovered = 0;
   }
 
   function uploadPoints() {
@@ -390,8 +490,62 @@
 
   // --- messages ------------------------------------------------------------
   function applyPoints(points) {
-    for (let i = 0; i < points.ids.length; ++i) setPoint(points.ids[i], points.xyz, points.rgb, i);
+    for (let i = 0; i < points.ids.length; ++i) setPoint(points, i);
   }
+
+  // The run's coverage rule: the first message that carries one enables the
+  // coverage and uncertainty colourings.
+  function setRule(coverage) {
+    if (!coverage) return;
+    const changed = rule === null || rule.min_views !== coverage.min_views ||
+                    rule.min_angle_deg !== coverage.min_angle_deg;
+    rule = { min_views: coverage.min_views, min_angle_deg: coverage.min_angle_deg };
+    state.measured = true;
+    for (const option of $('colouring').options) option.disabled = false;
+    if (changed) {
+      wellCovered = 0;
+      for (let slot = 0; slot < count; ++slot) if (isWell(slot)) ++wellCovered;
+    }
+  }
+
+  function showColouring() {
+    const legend = $('legend');
+    if (colouring === 'coverage' && rule !== null) {
+      legend.innerHTML = '<span style="background:#28c846"></span>well covered' +
+        '<span style="background:#ff9614"></span>angle &lt; ' + rule.min_angle_deg + '&deg;' +
+        '<span style="background:#e62828"></span>&lt; ' + rule.min_views + ' views';
+    } else if (colouring === 'uncertainty') {
+      const range = state.uncertaintyRange;
+      legend.innerHTML = '<span style="background:#28c828"></span>' +
+        (range ? range[0].toPrecision(2) : 'low') +
+        '<span style="background:#ffff28"></span>' +
+        '<span style="background:#ff0028"></span>' + (range ? range[1].toPrecision(2) : 'high') +
+        ' (model units)<span style="background:#dc3cdc"></span>undefined';
+    } else {
+      legend.textContent = '';
+    }
+    state.wellCovered = wellCovered;
+    state.wellCoveredShare = count > 0 ? wellCovered / count : 0;
+    if (rule !== null) {
+      $('coverage').innerHTML = 'Well covered: <b>' +
+        Math.round(100 * state.wellCoveredShare) + ' %</b> of points (&ge; ' + rule.min_views +
+        ' views, &ge; ' + rule.min_angle_deg + '&deg;)';
+    }
+  }
+
+  function setColouring(mode) {
+    colouring = mode;
+    state.colouring = mode;
+    if (mode === 'uncertainty') fitRamp();
+    paintAll();
+    uploadPoints();
+    showColouring();
+    requestRender();
+  }
+  $('colouring').addEventListener('change', function () { setColouring($('colouring').value); });
+  // The drawn colours, r g b per point in slot order: what the browser test
+  // compares with the run's measures.
+  state.drawnColours = function () { return Array.from(colors.subarray(0, 3 * count)); };
 
   function onModel(m) {
     frustums.forEach(function (object) { root.remove(object); });
@@ -401,6 +555,7 @@
     setIntrinsics(m.intrinsics);
     for (const c of m.cameras) setCamera(c);
     if (m.points.ids.length > capacity) allocate(m.points.ids.length);
+    setRule(m.coverage);
     applyPoints(m.points);
     showList('pending', m.pending);
     showList('rejected', m.rejected);
@@ -419,6 +574,7 @@
 
   function onUpdate(m) {
     state.updates += 1;
+    setRule(m.coverage);
     for (const id of m.removed_points) removePoint(id);
     applyPoints(m.points);
     setIntrinsics(m.intrinsics);
@@ -460,6 +616,13 @@
     else if (m.type === 'update') onUpdate(m);
     else if (m.type === 'end') onEnd();
     else if (m.type === 'status') onStatus(m);
+    // The uncertainty ramp follows the model as it grows (refitted when the
+    // points grew by a tenth: the cost of repainting is then the model's).
+    if (colouring === 'uncertainty' && Math.abs(count - rampCount) > 0.1 * rampCount) {
+      fitRamp();
+      paintAll();
+    }
+    showColouring();
     uploadPoints();
     state.cameras = frustums.size;
     state.points = count;

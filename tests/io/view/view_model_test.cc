@@ -91,6 +91,82 @@ TEST_CASE("The view's copy follows the model through additions and moves and rem
   CheckMirrors(view.snapshot(), model);
 }
 
+// The snapshot's measures are the tracker's, slot by slot.
+void CheckQualityMirrors(const ViewSnapshot& snapshot, const QualityTracker& quality) {
+  REQUIRE(snapshot.quality.views.size() == snapshot.point_ids.size());
+  REQUIRE(snapshot.quality.max_angle_deg.size() == snapshot.point_ids.size());
+  REQUIRE(snapshot.quality.sigma.size() == snapshot.point_ids.size());
+  for (std::size_t i = 0; i < snapshot.point_ids.size(); ++i) {
+    const std::optional<PointQuality> expected = quality.Point(snapshot.point_ids[i]);
+    REQUIRE(expected);
+    CHECK(snapshot.quality.views[i] == expected->views);
+    CHECK(snapshot.quality.max_angle_deg[i] == Approx(expected->max_angle_deg).epsilon(1e-6));
+    REQUIRE(expected->sigma);
+    CHECK(snapshot.quality.sigma[i] == Approx(*expected->sigma).epsilon(1e-6));
+  }
+}
+
+TEST_CASE("Points carry their quality measures, and the copy keeps them at their slots") {
+  Reconstruction model = SceneModel();
+  QualityTracker quality;
+  Reconstruction::Changes changes = model.TakeChanges();
+  quality.Update(model, changes);
+  ViewModel view;
+  const ViewUpdate first = MakeViewUpdate(model, changes, {}, &quality);
+  REQUIRE(first.coverage_rule);
+  CHECK(first.coverage_rule->min_views == quality.options().min_views);
+  CHECK(first.coverage_rule->min_angle_deg == quality.options().min_angle_deg);
+  REQUIRE(first.quality.views.size() == first.point_ids.size());
+  view.Apply(first);
+  CheckMirrors(view.snapshot(), model);
+  CheckQualityMirrors(view.snapshot(), quality);
+  // Five views around the scene: each point seen by all of them.
+  CHECK(view.snapshot().quality.views.front() == 5);
+
+  // Removals fill slots from the end; a deregistered image takes a view from
+  // every point it saw.
+  std::vector<point3D_t> ids;
+  for (const auto& [id, point] : model.points3D()) ids.push_back(id);
+  for (std::size_t i = 0; i < ids.size(); i += 4) model.DeletePoint3D(ids[i]);
+  model.DeRegisterImage(testing::SceneImageId(4));
+  changes = model.TakeChanges();
+  quality.Update(model, changes);
+  // As the run loop does: the points measured again are sent too.
+  Reconstruction::Changes remeasured;
+  remeasured.changed_points.insert(quality.LastRecomputedPoints().begin(),
+                                   quality.LastRecomputedPoints().end());
+  changes.Merge(remeasured);
+  view.Apply(MakeViewUpdate(model, changes, {}, &quality));
+  CheckMirrors(view.snapshot(), model);
+  CheckQualityMirrors(view.snapshot(), quality);
+  CHECK(view.snapshot().quality.views.front() == 4);
+
+  const nlohmann::json m = nlohmann::json::parse(ModelMessage(view.snapshot()));
+  CHECK(m["coverage"]["min_views"] == quality.options().min_views);
+  CHECK(m["points"]["views"].size() == model.NumPoints3D());
+  CHECK(m["points"]["angle"].size() == model.NumPoints3D());
+  CHECK(m["points"]["sigma"].size() == model.NumPoints3D());
+}
+
+TEST_CASE("An undefined uncertainty is sent as null, and a run without measures sends none") {
+  ViewUpdate update;
+  update.point_ids = {1, 2};
+  update.xyz = {0, 0, 1, 0, 1, 1};
+  update.rgb = {1, 2, 3, 4, 5, 6};
+  const nlohmann::json bare = nlohmann::json::parse(UpdateMessage(update, nullptr));
+  CHECK_FALSE(bare["points"].contains("views"));
+  CHECK_FALSE(bare.contains("coverage"));
+  update.quality.views = {1, 3};
+  update.quality.max_angle_deg = {0, 12.5f};
+  update.quality.sigma = {std::numeric_limits<float>::quiet_NaN(), 0.25f};
+  update.coverage_rule = ViewCoverageRule{3, 10};
+  const nlohmann::json u = nlohmann::json::parse(UpdateMessage(update, nullptr));
+  CHECK(u["points"]["views"] == nlohmann::json({1, 3}));
+  CHECK(u["points"]["sigma"][0].is_null());
+  CHECK(u["points"]["sigma"][1] == 0.25);
+  CHECK(u["coverage"]["min_angle_deg"] == 10.0);
+}
+
 TEST_CASE("Pending and rejected lists follow the per-image lines") {
   ViewModel view;
   ViewUpdate update;
