@@ -15,6 +15,8 @@ packages=(
   catch2 libcli11-dev libcpp-httplib-dev libcurl4-openssl-dev
   libopenblas-serial-dev libexif-dev
   libwebsocketpp-dev
+  # the coverage surface's Delaunay triangulation (docs/quality.md)
+  libcgal-dev
   # the live view (docs/view.md): the three.js it serves, the browser its test drives
   libjs-three chromium
   colmap

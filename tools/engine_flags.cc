@@ -57,6 +57,9 @@ void AddEngineFlags(CLI::App* command, EngineFlags* flags) {
                       "Rewrite the model in --out at most this often while running")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
+  command->add_flag("--no-coverage", flags->no_coverage,
+                    "Build no coverage surface and suggest no viewpoints (summary.json's "
+                    "\"coverage\", surface.ply, the view's surface and ghost cameras)");
   AddViewFlags(command, &flags->view);
 }
 
@@ -86,6 +89,7 @@ int RunFromFlags(ImageSource* source, Engine* engine, const EngineFlags& flags,
   options.refinement_share = flags.refinement_share;
   options.out = flags.out;
   options.refresh_seconds = flags.refresh_seconds;
+  options.coverage = !flags.no_coverage;
   options.resume = flags.resume;
   options.retry_quarantined = flags.retry_quarantined;
   options.live = run.live;

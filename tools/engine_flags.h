@@ -28,9 +28,11 @@ struct EngineFlags {
   // Refinement between images (Engine::Refine): off, or the share of the
   // engine's core it may take while no image waits (1: all of it).
   bool no_refinement = false;
-  double refinement_share = 1.0;
+  double refinement_share = RunLoop::Options().refinement_share;
   std::string out;
-  double refresh_seconds = 2.0;
+  double refresh_seconds = RunLoop::Options().refresh_seconds;
+  // RunLoop::Options::coverage off: no surface, no suggested viewpoints.
+  bool no_coverage = false;
   bool retry_quarantined = false;
   // Continue the model checkpointed in OUT/state, if any; else a new model
   // (and the checkpoint starts over).

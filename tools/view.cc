@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "io/formats/colmap_model.h"
+#include "quality/coverage.h"
 #include "quality/quality_tracker.h"
 #include "tools/commands.h"
 #include "tools/view_flags.h"
@@ -80,7 +81,12 @@ void AddViewCommand(CLI::App& app) {
       // coverage agrees with its summary.json.
       QualityTracker quality(QualityOptionsOf(summary));
       quality.Rebuild(model);
-      ViewUpdate update = MakeFullViewUpdate(model, &quality);
+      Coverage::Options coverage_options;
+      coverage_options.min_views = quality.options().min_views;
+      coverage_options.min_angle_deg = quality.options().min_angle_deg;
+      Coverage coverage(coverage_options);
+      coverage.Update(model);
+      ViewUpdate update = MakeFullViewUpdate(model, &quality, &coverage);
       // The images the run left waiting, from its summary (no reasons kept there).
       if (summary.contains("pending") && summary["pending"].is_array()) {
         for (const nlohmann::json& name : summary["pending"]) {

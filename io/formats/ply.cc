@@ -42,4 +42,43 @@ void WritePly(const Reconstruction& reconstruction, const std::filesystem::path&
       /*binary=*/true);
 }
 
+void WriteSurfacePly(const Coverage& coverage, const std::filesystem::path& path) {
+  const std::vector<Coverage::Face>& faces = coverage.faces();
+  WriteFileAtomically(
+      path,
+      [&](std::ostream& out) {
+        out << "ply\nformat binary_little_endian 1.0\n"
+            << "element vertex " << 3 * faces.size() << "\n"
+            << "property float x\nproperty float y\nproperty float z\n"
+            << "element face " << faces.size() << "\n"
+            << "property list uchar int vertex_indices\n"
+               "property uchar red\nproperty uchar green\nproperty uchar blue\n"
+               "property int views\nproperty float max_angle_deg\nproperty float gsd\n"
+               "property uchar coverage_class\nend_header\n";
+        for (const Coverage::Face& face : faces) {
+          for (const Eigen::Vector3d& corner : face.corners) {
+            const float xyz[3] = {float(corner.x()), float(corner.y()), float(corner.z())};
+            out.write(reinterpret_cast<const char*>(xyz), sizeof(xyz));
+          }
+        }
+        for (std::size_t i = 0; i < faces.size(); ++i) {
+          const Coverage::Face& face = faces[i];
+          const std::uint8_t corners = 3;
+          out.write(reinterpret_cast<const char*>(&corners), 1);
+          const std::int32_t indices[3] = {std::int32_t(3 * i), std::int32_t(3 * i + 1),
+                                           std::int32_t(3 * i + 2)};
+          out.write(reinterpret_cast<const char*>(indices), sizeof(indices));
+          const std::array<std::uint8_t, 3> colour = FaceClassColour(face.face_class);
+          out.write(reinterpret_cast<const char*>(colour.data()), 3);
+          const std::int32_t views = face.views;
+          out.write(reinterpret_cast<const char*>(&views), sizeof(views));
+          const float values[2] = {float(face.max_angle_deg), float(face.gsd)};
+          out.write(reinterpret_cast<const char*>(values), sizeof(values));
+          const std::uint8_t face_class = std::uint8_t(face.face_class);
+          out.write(reinterpret_cast<const char*>(&face_class), 1);
+        }
+      },
+      /*binary=*/true);
+}
+
 }  // namespace flysfm

@@ -4,6 +4,7 @@
 #include <unordered_map>
 
 #include "core/scene/reconstruction.h"
+#include "quality/coverage.h"
 #include "quality/measures.h"
 
 namespace flysfm {
@@ -21,5 +22,14 @@ constexpr float kPlyUndefinedSigma = 3.402823466e38f;
 // undefined); a point missing from it gets 0, 0, 0 and kPlyUndefinedSigma.
 void WritePly(const Reconstruction& reconstruction, const std::filesystem::path& path,
               const std::unordered_map<point3D_t, PointQuality>* quality = nullptr);
+
+// The coverage surface (quality/coverage.h) as a binary little-endian PLY,
+// written atomically: three float vertices per face (faces share none), and
+// per face its corners, its colour (FaceClassColour: green well covered,
+// orange too narrow an angle, red too few views, grey an underside), `int
+// views`, `float max_angle_deg`, `float gsd` (model units per pixel) and
+// `uchar coverage_class` (0 well covered, 1 narrow angle, 2 few views, 3
+// underside). MeshLab and CloudCompare show it coloured as it is.
+void WriteSurfacePly(const Coverage& coverage, const std::filesystem::path& path);
 
 }  // namespace flysfm

@@ -55,6 +55,13 @@ class RunState {
     if (!options_.out.empty()) {
       writer_ = std::make_unique<RunWriter>(options_.out);
       quality_ = std::make_unique<QualityTracker>(options_.quality);
+      if (options_.coverage) {
+        Coverage::Options coverage = options_.coverage_options;
+        // One rule of "well covered", the points'.
+        coverage.min_views = options_.quality.min_views;
+        coverage.min_angle_deg = options_.quality.min_angle_deg;
+        coverage_ = std::make_unique<Coverage>(coverage);
+      }
       checkpointer_ = std::make_unique<Checkpointer>(
           std::filesystem::path(options_.out) / "state", options_.checkpoint);
     }
@@ -65,10 +72,16 @@ class RunState {
 
  private:
   void Resume();
-  // `quality_ms`: the quality update after the step that gave `results`,
-  // logged on the arriving image's record (else the first).
+  // `quality_ms`, `coverage_ms`: the quality and coverage updates after the
+  // step that gave `results`, logged on the arriving image's record (else
+  // the first).
   void Report(const std::vector<ImageResult>& results, RunLoop::Origin origin,
-              const std::string& arriving = "", std::optional<double> quality_ms = std::nullopt);
+              const std::string& arriving = "", std::optional<double> quality_ms = std::nullopt,
+              std::optional<double> coverage_ms = std::nullopt);
+  // Measures the coverage surface again when the model changed since, and
+  // (unless `now`) refresh_seconds have passed since the last time: its
+  // time in ms, 0 when not due (nullopt without coverage).
+  std::optional<double> UpdateCoverage(bool now);
   // Takes the model's changes once for both consumers: updates the quality
   // tracker and keeps them for the view's next update. The tracker's time,
   // in ms (nullopt without a tracker).
@@ -97,6 +110,10 @@ class RunState {
   std::unique_ptr<RunWriter> writer_;
   std::unique_ptr<Checkpointer> checkpointer_;
   std::unique_ptr<QualityTracker> quality_;
+  std::unique_ptr<Coverage> coverage_;
+  Clock::time_point last_coverage_;
+  bool model_changed_since_coverage_ = true;
+  bool coverage_unpublished_ = false;
   // Changes taken since the view's last update.
   Reconstruction::Changes view_changes_;
   std::unique_ptr<Quarantine> quarantine_;
@@ -144,7 +161,8 @@ void RunState::Resume() {
 }
 
 void RunState::Report(const std::vector<ImageResult>& results, RunLoop::Origin origin,
-                      const std::string& arriving, std::optional<double> quality_ms) {
+                      const std::string& arriving, std::optional<double> quality_ms,
+                      std::optional<double> coverage_ms) {
   std::size_t quality_owner = 0;
   for (std::size_t i = 0; i < results.size(); ++i) {
     if (!arriving.empty() && results[i].name == arriving) quality_owner = i;
@@ -168,7 +186,9 @@ void RunState::Report(const std::vector<ImageResult>& results, RunLoop::Origin o
     if (view_) view_lines_.push_back(MakeViewLine(result, shown_delay, source));
     std::optional<double> logged_quality_ms;
     if (quality_) logged_quality_ms = i == quality_owner ? quality_ms.value_or(0) : 0;
-    if (writer_) writer_->Log(result, source, logged_quality_ms);
+    std::optional<double> logged_coverage_ms;
+    if (coverage_) logged_coverage_ms = i == quality_owner ? coverage_ms.value_or(0) : 0;
+    if (writer_) writer_->Log(result, source, logged_quality_ms, logged_coverage_ms);
     logged_.push_back(result);
     summary_.results.push_back(std::move(reported));
   }
@@ -177,6 +197,7 @@ void RunState::Report(const std::vector<ImageResult>& results, RunLoop::Origin o
 std::optional<double> RunState::TakeChanges() {
   if (!quality_ && !view_) return std::nullopt;
   const Reconstruction::Changes changes = engine_->TakeReconstructionChanges();
+  if (!changes.empty()) model_changed_since_coverage_ = true;
   if (view_) view_changes_.Merge(changes);
   if (!quality_) return std::nullopt;
   const double ms = quality_->Update(engine_->reconstruction(), changes);
@@ -196,7 +217,9 @@ void RunState::PublishView() {
   if (!view_) return;
   TakeChanges();
   view_->Publish(MakeViewUpdate(engine_->reconstruction(), std::move(view_changes_),
-                                std::move(view_lines_), quality_.get()));
+                                std::move(view_lines_), quality_.get(),
+                                coverage_unpublished_ ? coverage_.get() : nullptr));
+  coverage_unpublished_ = false;
   view_changes_ = Reconstruction::Changes();
   view_lines_.clear();
 }
@@ -230,15 +253,27 @@ bool RunState::WriteOutputs(bool final) {
   try {
     if (!writer_->MayReplaceOutputs(engine_->reconstruction(), final)) return true;
     TakeChanges();
-    writer_->WriteModel(engine_->reconstruction(), quality_.get());
+    writer_->WriteModel(engine_->reconstruction(), quality_.get(), coverage_.get());
     writer_->WriteSummary(engine_->reconstruction(), logged_, counts,
-                          engine_->PendingImageNames(), SecondsSince(start_), quality_.get());
+                          engine_->PendingImageNames(), SecondsSince(start_), quality_.get(),
+                          coverage_.get());
     return true;
   } catch (const std::exception& e) {
     ++counts.write_errors;
     std::fprintf(stderr, "cannot write the outputs in %s: %s\n", options_.out.c_str(), e.what());
     return false;
   }
+}
+
+std::optional<double> RunState::UpdateCoverage(bool now) {
+  if (!coverage_) return std::nullopt;
+  if (!model_changed_since_coverage_) return 0.0;
+  if (!now && SecondsSince(last_coverage_) < options_.refresh_seconds) return 0.0;
+  coverage_->Update(engine_->reconstruction());
+  last_coverage_ = Clock::now();
+  model_changed_since_coverage_ = false;
+  coverage_unpublished_ = true;
+  return coverage_->summary().ms;
 }
 
 void RunState::RefreshOutputs() {
@@ -282,7 +317,8 @@ void RunState::ProcessImage(PreparedFrame frame) {
   }
   if (hooks_.on_image) hooks_.on_image(*engine_, results, call_ms);
   const std::optional<double> quality_ms = TakeChanges();
-  Report(results, RunLoop::Origin::kArrival, name, quality_ms);
+  const std::optional<double> coverage_ms = UpdateCoverage(/*now=*/false);
+  Report(results, RunLoop::Origin::kArrival, name, quality_ms, coverage_ms);
   const auto checkpoint_start = Clock::now();
   Checkpoint(call_ms, /*final=*/false);
   summary_.calls.back().checkpoint_ms = 1000 * SecondsSince(checkpoint_start);
@@ -414,6 +450,8 @@ void RunState::End() {
   summary_.finish_s = SecondsSince(finish_start);
   ShowEnd("writing the final model and checkpoint", "", SecondsSince(end_start), std::nullopt);
   Checkpoint(1000 * SecondsSince(end_start), /*final=*/true);
+  TakeChanges();
+  UpdateCoverage(/*now=*/true);
   PublishView();
   if (!WriteOutputs(/*final=*/true)) summary_.exit_code = 1;
   if (source_failed_) summary_.exit_code = 1;
@@ -462,7 +500,11 @@ RunLoop::Summary RunState::Go(ImageSource* source) {
   // A resumed run's model so far: measured and published as a whole.
   if (quality_ || view_) engine_->TakeReconstructionChanges();
   if (quality_) quality_->Rebuild(engine_->reconstruction());
-  if (view_) view_->Publish(MakeFullViewUpdate(engine_->reconstruction(), quality_.get()));
+  UpdateCoverage(/*now=*/true);
+  if (view_) {
+    view_->Publish(MakeFullViewUpdate(engine_->reconstruction(), quality_.get(), coverage_.get()));
+    coverage_unpublished_ = false;
+  }
   ImageSource* input = source;
   if (!options_.out.empty()) {
     // Declared before the prepared source, so that they outlive the prefetch.

@@ -29,6 +29,7 @@
 #include "io/run/prepared_source.h"
 #include "io/run/run_writer.h"
 #include "io/sources/image_source.h"
+#include "quality/coverage.h"
 #include "quality/quality_tracker.h"
 
 namespace flysfm {
@@ -76,6 +77,13 @@ class RunLoop {
     // with an output folder. Kept here, not in the engine: the engine's
     // result stays what it was, whatever is measured of it.
     QualityTracker::Options quality;
+    // The coverage surface and the suggested viewpoints (summary.json's
+    // "coverage", surface.ply, log.jsonl's ms.coverage, the live view), with
+    // an output folder; recomputed with the output files, at most every
+    // refresh_seconds, and at the end. Its rule of "well covered" is the
+    // points' (quality.min_views, quality.min_angle_deg).
+    bool coverage = true;
+    Coverage::Options coverage_options;
 
     // One line per image result, the end's progress (a line updating in
     // place on a terminal, plain lines elsewhere: io/run/progress_line.h)

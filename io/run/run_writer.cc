@@ -42,6 +42,39 @@ nlohmann::json SigmaJson(const std::optional<double>& sigma) {
 
 }  // namespace
 
+nlohmann::json ToJson(const Coverage& coverage) {
+  const Coverage::Summary& summary = coverage.summary();
+  const Coverage::Options& options = coverage.options();
+  const auto vector = [](const Eigen::Vector3d& v) { return nlohmann::json{v.x(), v.y(), v.z()}; };
+  nlohmann::json suggestions = nlohmann::json::array();
+  for (const Coverage::Suggestion& suggestion : coverage.suggestions()) {
+    const Eigen::Quaterniond& q = suggestion.cam_from_world.rotation;
+    suggestions.push_back({{"position", vector(suggestion.position)},
+                           {"direction", vector(suggestion.direction)},
+                           {"cam_from_world",
+                            {{"qw", q.w()}, {"qx", q.x()}, {"qy", q.y()}, {"qz", q.z()},
+                             {"t", vector(suggestion.cam_from_world.translation)}}},
+                           {"area_share", suggestion.area_share},
+                           {"reason", suggestion.reason}});
+  }
+  return {{"min_views", options.min_views},
+          {"min_angle_deg", options.min_angle_deg},
+          {"max_incidence_deg", options.max_incidence_deg},
+          {"points_used", summary.points_used},
+          {"rays", summary.rays},
+          {"faces", summary.faces},
+          {"area", summary.area},
+          {"well_covered_area", summary.well_covered_area},
+          {"narrow_angle_area", summary.narrow_angle_area},
+          {"few_views_area", summary.few_views_area},
+          {"underside_area", summary.underside_area},
+          {"well_covered_share", summary.well_covered_share},
+          {"median_gsd", summary.median_gsd},
+          {"up", vector(coverage.up())},
+          {"ms", summary.ms},
+          {"suggestions", suggestions}};
+}
+
 nlohmann::json ToJson(const QualityTracker& quality, const Reconstruction& reconstruction) {
   const QualityTracker::Summary summary = quality.Summarize();
   const QualityTracker::Options& options = quality.options();
@@ -163,18 +196,20 @@ bool RunWriter::MayReplaceOutputs(const Reconstruction& reconstruction, bool fin
 }
 
 void RunWriter::Log(const ImageResult& result, const std::string& source,
-                    std::optional<double> quality_ms) {
+                    std::optional<double> quality_ms, std::optional<double> coverage_ms) {
   nlohmann::json record = ToJson(result);
   if (!source.empty()) record["source"] = source;
   if (quality_ms) record["ms"]["quality"] = *quality_ms;
+  if (coverage_ms) record["ms"]["coverage"] = *coverage_ms;
   // One whole line per write, flushed: a reader tailing the log never sees
   // half a record, and a crash loses none that was reported.
   log_ << record.dump() + "\n" << std::flush;
 }
 
 void RunWriter::WriteModel(const Reconstruction& reconstruction,
-                           const QualityTracker* quality) {
+                           const QualityTracker* quality, const Coverage* coverage) {
   WriteColmapModel(reconstruction, dir_ / "sparse");
+  if (coverage) WriteSurfacePly(*coverage, dir_ / "surface.ply");
   if (quality) {
     const std::unordered_map<point3D_t, PointQuality> points = quality->Points();
     WritePly(reconstruction, dir_ / "points.ply", &points);
@@ -188,7 +223,8 @@ void RunWriter::WriteSummary(const Reconstruction& reconstruction,
                              const std::vector<ImageResult>& results,
                              const RunCounts& counts,
                              const std::vector<std::string>& pending,
-                             double wall_seconds, const QualityTracker* quality) {
+                             double wall_seconds, const QualityTracker* quality,
+                             const Coverage* coverage) {
   int rejected = 0;
   for (const ImageResult& result : results) rejected += result.status == ImageStatus::kRejected;
   // The cameras as the model ends with them, with what COLMAP's format has no
@@ -234,6 +270,7 @@ void RunWriter::WriteSummary(const Reconstruction& reconstruction,
     summary["sources"] = sources;
   }
   if (quality) summary["quality"] = ToJson(*quality, reconstruction);
+  if (coverage) summary["coverage"] = ToJson(*coverage);
   WriteFileAtomically(dir_ / "summary.json",
                       [&](std::ostream& out) { out << summary.dump(2) << "\n"; });
 }

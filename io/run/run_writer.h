@@ -21,6 +21,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/engine.h"
+#include "quality/coverage.h"
 #include "quality/quality_tracker.h"
 
 namespace flysfm {
@@ -32,6 +33,9 @@ nlohmann::json ToJson(const Engine::RefinementTotals& totals);
 // registered image its name, inliers, spread and centre sigma (null when
 // undefined).
 nlohmann::json ToJson(const QualityTracker& quality, const Reconstruction& reconstruction);
+// summary.json's "coverage": the surface's areas and share, and the
+// suggested viewpoints.
+nlohmann::json ToJson(const Coverage& coverage);
 
 // One photographer's share of a run fed by several sources
 // (io/sources/merged_source.h): summary.json's "sources". Each count is the
@@ -69,24 +73,28 @@ class RunWriter {
 
   // `source`: the tag of the source the image came from (a "source" field
   // on its record); empty for a single source, and then no field.
+  // `coverage_ms`: the coverage surface's update, as "coverage" in "ms".
   // `quality_ms`: the quality tracker's update for this record, as "quality"
   // in its "ms" (outside "total", which is the engine's); none without it.
   void Log(const ImageResult& result, const std::string& source = "",
-           std::optional<double> quality_ms = std::nullopt);
+           std::optional<double> quality_ms = std::nullopt,
+           std::optional<double> coverage_ms = std::nullopt);
   // Whether the model files and summary may be written now: false while
   // `reconstruction` has fewer registered images than a previous run's
   // model in the folder. `final` (the run's last write) makes it true, the
   // previous model files and summary then moved to OUT/previous/ first.
   bool MayReplaceOutputs(const Reconstruction& reconstruction, bool final);
   // `quality`, when given, must be current: its measures go into points.ply.
+  // `coverage`, when given, is written as surface.ply.
   void WriteModel(const Reconstruction& reconstruction,
-                  const QualityTracker* quality = nullptr);
+                  const QualityTracker* quality = nullptr, const Coverage* coverage = nullptr);
   // `results`: every result logged so far. `quality`, when given and
   // current, becomes the "quality" object.
   void WriteSummary(const Reconstruction& reconstruction,
                     const std::vector<ImageResult>& results, const RunCounts& counts,
                     const std::vector<std::string>& pending, double wall_seconds,
-                    const QualityTracker* quality = nullptr);
+                    const QualityTracker* quality = nullptr,
+                    const Coverage* coverage = nullptr);
 
   const std::filesystem::path& dir() const { return dir_; }
 

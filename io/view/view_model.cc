@@ -125,9 +125,46 @@ void AppendCoverageRule(const std::optional<ViewCoverageRule>& rule, std::string
   *out += '}';
 }
 
+
 void AppendString(const std::string& value, std::string* out) {
   // nlohmann's escaping; invalid UTF-8 in a file name is replaced, not thrown.
   *out += nlohmann::json(value).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+}
+
+// "surface":{"share":..,"area":..,"xyz":[...],"classes":[...],
+// "suggestions":[{"q":[x,y,z,w],"t":[...],"share":..,"reason":".."}]}.
+void AppendSurface(const std::optional<ViewSurface>& surface, std::string* out) {
+  if (!surface) return;
+  *out += ",\"surface\":{\"share\":";
+  AppendNumber(surface->well_covered_share, out);
+  *out += ",\"area\":";
+  AppendNumber(surface->area, out);
+  *out += ',';
+  AppendFloats("xyz", surface->xyz, out);
+  *out += ',';
+  AppendIntegers("classes", surface->classes, out);
+  *out += ",\"suggestions\":[";
+  for (std::size_t i = 0; i < surface->suggestions.size(); ++i) {
+    const ViewSurface::Suggestion& s = surface->suggestions[i];
+    if (i > 0) *out += ',';
+    *out += "{\"q\":[";
+    const double q[4] = {s.rotation.x(), s.rotation.y(), s.rotation.z(), s.rotation.w()};
+    for (int k = 0; k < 4; ++k) {
+      if (k > 0) *out += ',';
+      AppendNumber(q[k], out);
+    }
+    *out += "],\"t\":[";
+    for (int k = 0; k < 3; ++k) {
+      if (k > 0) *out += ',';
+      AppendNumber(s.translation[k], out);
+    }
+    *out += "],\"share\":";
+    AppendNumber(s.area_share, out);
+    *out += ",\"reason\":";
+    AppendString(s.reason, out);
+    *out += '}';
+  }
+  *out += "]}";
 }
 
 void AppendCameras(const std::vector<const ViewCamera*>& cameras, std::string* out) {
@@ -227,9 +264,31 @@ ViewLine MakeViewLine(const ImageResult& result, std::optional<double> delay_ms,
   return line;
 }
 
+ViewSurface MakeViewSurface(const Coverage& coverage) {
+  ViewSurface surface;
+  surface.xyz.reserve(9 * coverage.faces().size());
+  surface.classes.reserve(coverage.faces().size());
+  for (const Coverage::Face& face : coverage.faces()) {
+    for (const Eigen::Vector3d& corner : face.corners) {
+      for (int k = 0; k < 3; ++k) surface.xyz.push_back(float(corner[k]));
+    }
+    surface.classes.push_back(std::uint8_t(face.face_class));
+  }
+  surface.well_covered_share = coverage.summary().well_covered_share;
+  surface.area = coverage.summary().area;
+  for (const Coverage::Suggestion& suggestion : coverage.suggestions()) {
+    surface.suggestions.push_back({suggestion.cam_from_world.rotation,
+                                   suggestion.cam_from_world.translation,
+                                   suggestion.area_share, suggestion.reason});
+  }
+  return surface;
+}
+
 ViewUpdate MakeViewUpdate(const Reconstruction& model, const Reconstruction::Changes& changes,
-                          std::vector<ViewLine> lines, const QualityTracker* quality) {
+                          std::vector<ViewLine> lines, const QualityTracker* quality,
+                          const Coverage* surface) {
   ViewUpdate update;
+  if (surface) update.surface = MakeViewSurface(*surface);
   update.lines = std::move(lines);
   update.coverage_rule = CoverageRule(quality);
   for (const image_t id : changes.changed_images) {
@@ -254,8 +313,10 @@ ViewUpdate MakeViewUpdate(const Reconstruction& model, const Reconstruction::Cha
   return update;
 }
 
-ViewUpdate MakeFullViewUpdate(const Reconstruction& model, const QualityTracker* quality) {
+ViewUpdate MakeFullViewUpdate(const Reconstruction& model, const QualityTracker* quality,
+                              const Coverage* surface) {
   ViewUpdate update;
+  if (surface) update.surface = MakeViewSurface(*surface);
   update.coverage_rule = CoverageRule(quality);
   for (const image_t id : model.RegisteredImageIds()) {
     update.cameras.push_back(MakeViewCamera(model.image(id)));
@@ -338,6 +399,7 @@ bool ViewModel::Apply(const ViewUpdate& update) {
   for (const point3D_t id : update.removed_points) RemovePoint(id);
   for (std::size_t i = 0; i < update.point_ids.size(); ++i) SetPoint(update, i);
   if (update.coverage_rule) snapshot_.coverage_rule = update.coverage_rule;
+  if (update.surface) snapshot_.surface = update.surface;
   for (const image_t id : update.removed_cameras) snapshot_.cameras.erase(id);
   for (const ViewCamera& camera : update.cameras) snapshot_.cameras[camera.image_id] = camera;
   for (const ViewIntrinsics& k : update.intrinsics) snapshot_.intrinsics[k.camera_id] = k;
@@ -379,6 +441,7 @@ std::string ModelMessage(const ViewSnapshot& snapshot) {
   out += ',';
   AppendPoints(snapshot.point_ids, snapshot.xyz, snapshot.rgb, snapshot.quality, &out);
   AppendCoverageRule(snapshot.coverage_rule, &out);
+  AppendSurface(snapshot.surface, &out);
   out += ',';
   AppendNamedReasons("pending", snapshot.pending, &out);
   out += ',';
@@ -416,6 +479,7 @@ std::string UpdateMessage(const ViewUpdate& update, const ViewSnapshot* lists) {
   out += ',';
   AppendPoints(update.point_ids, update.xyz, update.rgb, update.quality, &out);
   AppendCoverageRule(update.coverage_rule, &out);
+  AppendSurface(update.surface, &out);
   out += ',';
   AppendIntegers("removed_points", update.removed_points, &out);
   if (lists) {

@@ -19,6 +19,7 @@
 
 #include "core/scene/image_result.h"
 #include "core/scene/reconstruction.h"
+#include "quality/coverage.h"
 #include "quality/quality_tracker.h"
 
 namespace flysfm {
@@ -73,6 +74,24 @@ struct ViewCoverageRule {
   double min_angle_deg = 0;
 };
 
+// The coverage surface and the suggested viewpoints (quality/coverage.h), as
+// the page draws them: each face's corners and class, each suggestion a
+// ghost camera with its reason.
+struct ViewSurface {
+  std::vector<float> xyz;                // 9 per face
+  std::vector<std::uint8_t> classes;     // Coverage::FaceClass, one per face
+  double well_covered_share = 0;         // of the reachable area
+  double area = 0;
+  struct Suggestion {
+    Eigen::Quaterniond rotation = Eigen::Quaterniond::Identity();  // cam_from_world
+    Eigen::Vector3d translation = Eigen::Vector3d::Zero();
+    double area_share = 0;
+    std::string reason;
+  };
+  std::vector<Suggestion> suggestions;
+};
+ViewSurface MakeViewSurface(const Coverage& coverage);
+
 // What one step of the engine changed, as the page needs it.
 struct ViewUpdate {
   std::vector<ViewLine> lines;
@@ -86,6 +105,8 @@ struct ViewUpdate {
   // The points' measures, when the run has a quality tracker.
   ViewPointQuality quality;
   std::optional<ViewCoverageRule> coverage_rule;
+  // The surface, when it was measured again since the last update.
+  std::optional<ViewSurface> surface;
   std::vector<point3D_t> removed_points;
   int num_images = 0;
   int num_points = 0;
@@ -94,14 +115,16 @@ struct ViewUpdate {
 // The update for `changes` (Reconstruction::TakeChanges) of `model`, with the
 // lines of the images this step reported. Its cost is that of the changes.
 // With `quality` (brought up to date with the same changes), the points carry
-// their measures, and the points it measured again without their moving are
-// sent too.
+// their measures. With `surface`, the update carries it (the run loop gives
+// it when it was measured again).
 ViewUpdate MakeViewUpdate(const Reconstruction& model, const Reconstruction::Changes& changes,
-                          std::vector<ViewLine> lines, const QualityTracker* quality = nullptr);
+                          std::vector<ViewLine> lines, const QualityTracker* quality = nullptr,
+                          const Coverage* surface = nullptr);
 // The whole of `model` as one update: what `flysfm view` serves, and what a
 // run that starts from a resumed model begins with.
 ViewUpdate MakeFullViewUpdate(const Reconstruction& model,
-                              const QualityTracker* quality = nullptr);
+                              const QualityTracker* quality = nullptr,
+                              const Coverage* surface = nullptr);
 
 // The view's copy of the model, without its index: what a `model` message is
 // written from. Copying it is copying flat arrays.
@@ -111,6 +134,7 @@ struct ViewSnapshot {
   std::vector<std::uint8_t> rgb;
   ViewPointQuality quality;  // every point's, once an update carried them
   std::optional<ViewCoverageRule> coverage_rule;
+  std::optional<ViewSurface> surface;  // the latest
   std::map<image_t, ViewCamera> cameras;
   std::map<camera_t, ViewIntrinsics> intrinsics;
   // Image name -> why it waits / why it was rejected.

@@ -165,6 +165,32 @@ void CheckColourings(testing::HeadlessBrowser& browser, const std::filesystem::p
   for (const std::string& error : browser.errors()) FAIL_CHECK("browser: " << error);
 }
 
+// The coverage surface and the suggested viewpoints of the finished page are
+// summary.json's: the share, one ghost camera and one listed reason per
+// suggestion, in its order.
+void CheckSurface(testing::HeadlessBrowser& browser, const std::filesystem::path& out) {
+  const nlohmann::json summary = nlohmann::json::parse(testing::ReadText(out / "summary.json"));
+  REQUIRE(summary.contains("coverage"));
+  const nlohmann::json& coverage = summary["coverage"];
+  const nlohmann::json state = browser.Evaluate(
+      "(() => { const v = window.flysfmView; return {faces: v.surfaceFaces, share: v.surfaceShare, "
+      "suggestions: v.suggestions, ghosts: v.ghosts, "
+      "listed: Array.from(document.querySelectorAll('#suggestions li')).map(li => li.textContent)}; "
+      "})()");
+  INFO("page " << state.dump() << "\nsummary " << coverage.dump());
+  CHECK(state["faces"] == coverage["faces"]);
+  REQUIRE(coverage["faces"].get<int>() > 0);
+  CHECK(state["share"].get<double>() == Approx(coverage["well_covered_share"].get<double>()));
+  std::vector<std::string> reasons;
+  for (const nlohmann::json& suggestion : coverage["suggestions"]) {
+    reasons.push_back(suggestion["reason"].get<std::string>());
+  }
+  CHECK(state["suggestions"].get<std::vector<std::string>>() == reasons);
+  CHECK(state["listed"].get<std::vector<std::string>>() == reasons);
+  CHECK(state["ghosts"].get<std::size_t>() == reasons.size());
+  browser.Screenshot(ArtifactDir() / "view_surface.png");
+}
+
 struct Run {
   std::filesystem::path dir;
   std::filesystem::path out;
@@ -201,6 +227,7 @@ TEST_CASE("view: a page opened as the run starts ends showing the run's model") 
     browser.Navigate(url);
     CheckFinishedPage(browser, run.out, ArtifactDir() / "view_start.png");
     CheckColourings(browser, run.out);
+    CheckSurface(browser, run.out);
   }
   StopBatch(run);
 }

@@ -333,6 +333,7 @@
     const size = frustums.size > 1 ? box.getSize(new THREE.Vector3()).length() : 0;
     frustumScale = size > 0 ? 0.08 * size : 0.3;
     frustums.forEach(function (object) { object.scale.setScalar(frustumScale); });
+    for (const ghost of ghosts) ghost.scale.setScalar(1.5 * frustumScale);
   }
 
   // --- level of detail while moving --------------------------------------
@@ -376,6 +377,75 @@
     }
     return lodGeometry;
   }
+
+  // --- the coverage surface and the suggested viewpoints -------------------
+  // Faces coloured by their coverage (FaceClassColour in quality/coverage.cc:
+  // well covered, too narrow an angle, too few views, underside), half
+  // transparent over the points; each suggestion a magenta ghost camera.
+  const faceColours = [[40, 200, 70], [255, 150, 20], [230, 40, 40], [128, 128, 128]];
+  const surfaceMaterial = new THREE.MeshBasicMaterial({
+    vertexColors: THREE.VertexColors, transparent: true, opacity: 0.45,
+    side: THREE.DoubleSide, depthWrite: false });
+  const ghostMaterial = new THREE.LineBasicMaterial({ color: 0xee55ff });
+  let surfaceMesh = null;
+  const ghosts = [];
+
+  function setSurface(surface) {
+    if (surfaceMesh) {
+      root.remove(surfaceMesh);
+      surfaceMesh.geometry.dispose();
+      surfaceMesh = null;
+    }
+    const faces = surface.classes.length;
+    if (faces > 0) {
+      const g = new THREE.BufferGeometry();
+      g.setAttribute('position', new THREE.BufferAttribute(new Float32Array(surface.xyz), 3));
+      const rgb = new Uint8Array(9 * faces);
+      for (let f = 0; f < faces; ++f) {
+        const c = faceColours[surface.classes[f]] || [0, 0, 0];
+        for (let v = 0; v < 3; ++v) rgb.set(c, 9 * f + 3 * v);
+      }
+      g.setAttribute('color', new THREE.BufferAttribute(rgb, 3, true));
+      surfaceMesh = new THREE.Mesh(g, surfaceMaterial);
+      surfaceMesh.frustumCulled = false;
+      surfaceMesh.visible = $('show-surface').checked;
+      root.add(surfaceMesh);
+    }
+    for (const ghost of ghosts) root.remove(ghost);
+    ghosts.length = 0;
+    const list = $('suggestions');
+    list.textContent = '';
+    for (const s of surface.suggestions) {
+      const ghost = new THREE.LineSegments(geometryFor(firstCameraId()), ghostMaterial);
+      const q = new THREE.Quaternion(s.q[0], s.q[1], s.q[2], s.q[3]).normalize();
+      const inverse = q.clone().conjugate();
+      ghost.quaternion.copy(inverse);
+      ghost.position.copy(new THREE.Vector3(s.t[0], s.t[1], s.t[2]).applyQuaternion(inverse).negate());
+      ghost.scale.setScalar(1.5 * frustumScale);
+      ghosts.push(ghost);
+      root.add(ghost);
+      const li = document.createElement('li');
+      li.textContent = s.reason;
+      list.appendChild(li);
+    }
+    $('suggestions-count').textContent = String(surface.suggestions.length);
+    $('surface-share').innerHTML = faces > 0 ?
+      'well covered: <b>' + Math.round(100 * surface.share) + ' %</b> of its area' : '';
+    state.surfaceFaces = faces;
+    state.surfaceShare = faces > 0 ? surface.share : null;
+    state.suggestions = surface.suggestions.map(function (s) { return s.reason; });
+    state.ghosts = ghosts.length;
+  }
+
+  function firstCameraId() {
+    for (const id of frustumGeometry.keys()) return id;
+    return 1;
+  }
+
+  $('show-surface').addEventListener('change', function () {
+    if (surfaceMesh) surfaceMesh.visible = $('show-surface').checked;
+    requestRender();
+  });
 
   // --- what the user sees --------------------------------------------------
   let userMoved = false;
@@ -557,6 +627,7 @@
     if (m.points.ids.length > capacity) allocate(m.points.ids.length);
     setRule(m.coverage);
     applyPoints(m.points);
+    if (m.surface) setSurface(m.surface);
     showList('pending', m.pending);
     showList('rejected', m.rejected);
     showCounts(m.counts);
@@ -577,6 +648,7 @@
     setRule(m.coverage);
     for (const id of m.removed_points) removePoint(id);
     applyPoints(m.points);
+    if (m.surface) setSurface(m.surface);
     setIntrinsics(m.intrinsics);
     for (const id of m.removed_cameras) removeCamera(id);
     let newest = null;

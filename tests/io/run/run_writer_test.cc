@@ -193,6 +193,48 @@ TEST_CASE("With a quality tracker: ms.quality in the log, the measures in summar
   CHECK(std::size_t(ply.tellg() - body) == model.NumPoints3D() * (24 + 3 + 4 + 12));
 }
 
+TEST_CASE("With coverage: ms.coverage in the log, the surface in summary.json and surface.ply") {
+  const Reconstruction& model = Written().model;
+  Coverage coverage;
+  coverage.Update(model);
+  REQUIRE(coverage.summary().faces > 0);
+  const fs::path dir = testing::MakeTempDir("run_writer_coverage");
+  {
+    RunWriter writer(dir);
+    ImageResult result;
+    result.name = "IMG_0001.JPG";
+    writer.Log(result, "", 1.5, 7.0);
+    writer.WriteModel(model, nullptr, &coverage);
+    writer.WriteSummary(model, {result}, RunCounts(), {}, 1.0, nullptr, &coverage);
+  }
+  std::ifstream log(dir / "log.jsonl");
+  std::string first;
+  std::getline(log, first);
+  CHECK(nlohmann::json::parse(first)["ms"]["coverage"] == 7.0);
+
+  std::ifstream summary_file(dir / "summary.json");
+  const nlohmann::json json = nlohmann::json::parse(summary_file)["coverage"];
+  CHECK(json["faces"] == coverage.summary().faces);
+  CHECK(json["well_covered_share"] == coverage.summary().well_covered_share);
+  CHECK(json["min_views"] == coverage.options().min_views);
+  REQUIRE(json["suggestions"].size() == coverage.suggestions().size());
+  for (std::size_t i = 0; i < coverage.suggestions().size(); ++i) {
+    CHECK(json["suggestions"][i]["reason"] == coverage.suggestions()[i].reason);
+    CHECK(json["suggestions"][i]["position"][0] == coverage.suggestions()[i].position.x());
+  }
+
+  std::ifstream ply(dir / "surface.ply", std::ios::binary);
+  std::string line, header;
+  while (std::getline(ply, line) && line != "end_header") header += line + "\n";
+  CHECK(header.find("element face " + std::to_string(coverage.faces().size())) !=
+        std::string::npos);
+  // Per face three float vertices, then its record: a count, three int
+  // indices, three colour bytes, an int, two floats and a class byte.
+  const auto body = ply.tellg();
+  ply.seekg(0, std::ios::end);
+  CHECK(std::size_t(ply.tellg() - body) == coverage.faces().size() * (36 + 1 + 12 + 3 + 4 + 8 + 1));
+}
+
 TEST_CASE("The run's sparse/ model reads back, text and binary, as the engine's model") {
   const WrittenRun& run = Written();
   REQUIRE(run.model.NumRegisteredImages() >= 6);

@@ -167,6 +167,33 @@ TEST_CASE("An undefined uncertainty is sent as null, and a run without measures 
   CHECK(u["coverage"]["min_angle_deg"] == 10.0);
 }
 
+TEST_CASE("The surface and its suggestions go in the update that carries them and stay for a page opened later") {
+  ViewSurface surface;
+  surface.xyz = {0, 0, 1, 1, 0, 1, 0, 1, 1};
+  surface.classes = {std::uint8_t(Coverage::FaceClass::kFewViews)};
+  surface.well_covered_share = 0.25;
+  surface.area = 0.5;
+  surface.suggestions.push_back({Eigen::Quaterniond::Identity(), Eigen::Vector3d(1, 2, 3), 0.75,
+                                 "75 % of the surface, on the back, seen by fewer than 3 photos"});
+  ViewUpdate update;
+  update.surface = surface;
+  ViewModel view;
+  view.Apply(update);
+  const nlohmann::json u = nlohmann::json::parse(UpdateMessage(update, nullptr));
+  CHECK(u["surface"]["classes"] == nlohmann::json({2}));
+  CHECK(u["surface"]["xyz"].size() == 9);
+  CHECK(u["surface"]["share"] == 0.25);
+  CHECK(u["surface"]["suggestions"][0]["t"] == nlohmann::json({1.0, 2.0, 3.0}));
+  CHECK(u["surface"]["suggestions"][0]["q"][3] == 1.0);
+  CHECK(u["surface"]["suggestions"][0]["reason"] == surface.suggestions[0].reason);
+  // A later update without a surface leaves the page's as it was.
+  view.Apply(ViewUpdate());
+  CHECK_FALSE(nlohmann::json::parse(UpdateMessage(ViewUpdate(), nullptr)).contains("surface"));
+  const nlohmann::json m = nlohmann::json::parse(ModelMessage(view.snapshot()));
+  CHECK(m["surface"]["suggestions"].size() == 1);
+  CHECK(m["surface"]["area"] == 0.5);
+}
+
 TEST_CASE("Pending and rejected lists follow the per-image lines") {
   ViewModel view;
   ViewUpdate update;
