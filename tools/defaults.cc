@@ -20,6 +20,7 @@
 #include "io/sources/watched_folder.h"
 #include "io/synthetic/synthetic_source.h"
 #include "io/view/view_server.h"
+#include "quality/coverage.h"
 #include "quality/quality_tracker.h"
 #include "retrieval/retrieval_model.h"
 
@@ -583,6 +584,18 @@ void List(const std::string& prefix, const QualityTracker::Options& o, Out* out)
   OPTION(min_angle_deg, "... under a largest triangulation angle of at least this many degrees");
 }
 
+void List(const std::string& prefix, const Coverage::Options& o, Out* out) {
+  [[maybe_unused]] const auto& [min_views, min_angle_deg, max_incidence_deg, max_points,
+                                max_rays_per_point, max_suggestions, min_suggestion_share] = o;
+  OPTION(min_views, "A well-covered face is faced by at least this many cameras (a run takes quality.min_views)");
+  OPTION(min_angle_deg, "... with a largest angle between their rays of at least this (a run takes quality.min_angle_deg)");
+  OPTION(max_incidence_deg, "A camera counts for a face it looks at less obliquely than this, degrees from its normal");
+  OPTION(max_points, "The surface is built from at most this many points, evenly taken");
+  OPTION(max_rays_per_point, "... each carving with at most this many of its rays");
+  OPTION(max_suggestions, "Suggested viewpoints, at most");
+  OPTION(min_suggestion_share, "A side is suggested when at least this share of the reachable surface is under-covered there");
+}
+
 void List(const std::string& prefix, const ViewServerOptions& o, Out* out) {
   [[maybe_unused]] const auto& [lan, port, token, max_clients, max_queued_messages,
                                 keepalive_seconds, write_timeout_seconds, thumbnail_width,
@@ -709,6 +722,7 @@ std::vector<OptionDefault> ListOptionDefaults() {
   List("merged_source.", MergedSourceOptions(), &out);
   List("view.", ViewServerOptions(), &out);
   List("quality.", QualityTracker::Options(), &out);
+  List("coverage.", Coverage::Options(), &out);
   List("retrieval_training.", RetrievalTrainingOptions(), &out);
   List("synthetic_capture.", SyntheticCaptureOptions(), &out);
   return out;
