@@ -42,44 +42,20 @@ constexpr int kRingPlanVersion = 1;
 TexturedScene MakeBuilding(std::uint32_t seed) {
   TexturedScene scene;
   std::uint32_t texture_seed = seed * 7919u;
-  const auto add = [&](const Eigen::Vector3d& origin, const Eigen::Vector3d& u,
-                       const Eigen::Vector3d& v, double texels_per_metre) {
+  for (const BuildingFacet& geometry : BuildingFacets()) {
     TexturedFacet facet;
-    facet.origin = origin;
-    facet.axis_u = u;
-    facet.axis_v = v;
-    const int cols = int(std::ceil(u.norm() * texels_per_metre));
-    const int rows = int(std::ceil(v.norm() * texels_per_metre));
+    facet.origin = geometry.origin;
+    facet.axis_u = geometry.axis_u;
+    facet.axis_v = geometry.axis_v;
+    const int cols = int(std::ceil(geometry.axis_u.norm() * geometry.texels_per_metre));
+    const int rows = int(std::ceil(geometry.axis_v.norm() * geometry.texels_per_metre));
     cv::Mat texture;
     MakeTexture(cols, rows, ++texture_seed).convertTo(texture, CV_32F);
     // Less than a texel of blur: band-limited enough that one sample per
     // pixel does not alias where a pixel covers a texel or two.
     cv::GaussianBlur(texture, facet.texture, cv::Size(), 0.8);
     scene.facets.push_back(std::move(facet));
-  };
-  const Eigen::Vector3d x = Eigen::Vector3d::UnitX();
-  const Eigen::Vector3d y = Eigen::Vector3d::UnitY();
-  const Eigen::Vector3d z = Eigen::Vector3d::UnitZ();
-  const double w = kWallTexelsPerMetre;
-  // The four walls, counter-clockwise from the south one (y = -kHalfY).
-  add({-kHalfX, -kHalfY, 0}, 2 * kHalfX * x, kHeight * z, w);
-  add({kHalfX, -kHalfY, 0}, 2 * kHalfY * y, kHeight * z, w);
-  add({kHalfX, kHalfY, 0}, -2 * kHalfX * x, kHeight * z, w);
-  add({-kHalfX, kHalfY, 0}, -2 * kHalfY * y, kHeight * z, w);
-  // Two bays (front, two sides, roof) give depth and occlusions: one on the
-  // south wall, 4 m wide, 1.5 m out, 5 m high; one on the east wall.
-  const auto bay = [&](const Eigen::Vector3d& corner, const Eigen::Vector3d& along,
-                       const Eigen::Vector3d& out, double height) {
-    add(corner + out, along, height * z, w);          // front
-    add(corner, out, height * z, w);                  // side
-    add(corner + along, out, height * z, w);          // other side
-    add(corner + height * z, along, out, w);          // roof
-  };
-  bay({-3.0, -kHalfY, 0}, 4.0 * x, -1.5 * y, 5.0);
-  bay({kHalfX, -1.0, 0}, 3.0 * y, 1.2 * x, 3.5);
-  // The ground.
-  add({-kGroundHalfSize, -kGroundHalfSize, 0}, 2 * kGroundHalfSize * x,
-      2 * kGroundHalfSize * y, kGroundTexelsPerMetre);
+  }
   return scene;
 }
 
@@ -127,6 +103,38 @@ void PointOnLoop(double s, double distance, Eigen::Vector2d* nearest,
 double LoopLength(double distance) { return 4 * (kHalfX + kHalfY) + 2 * M_PI * distance; }
 
 }  // namespace
+
+std::vector<BuildingFacet> BuildingFacets() {
+  std::vector<BuildingFacet> facets;
+  const auto add = [&](const Eigen::Vector3d& origin, const Eigen::Vector3d& u,
+                       const Eigen::Vector3d& v, double texels_per_metre) {
+    facets.push_back({origin, u, v, texels_per_metre});
+  };
+  const Eigen::Vector3d x = Eigen::Vector3d::UnitX();
+  const Eigen::Vector3d y = Eigen::Vector3d::UnitY();
+  const Eigen::Vector3d z = Eigen::Vector3d::UnitZ();
+  const double w = kWallTexelsPerMetre;
+  // The four walls, counter-clockwise from the south one (y = -kHalfY).
+  add({-kHalfX, -kHalfY, 0}, 2 * kHalfX * x, kHeight * z, w);
+  add({kHalfX, -kHalfY, 0}, 2 * kHalfY * y, kHeight * z, w);
+  add({kHalfX, kHalfY, 0}, -2 * kHalfX * x, kHeight * z, w);
+  add({-kHalfX, kHalfY, 0}, -2 * kHalfY * y, kHeight * z, w);
+  // Two bays (front, two sides, roof) give depth and occlusions: one on the
+  // south wall, 4 m wide, 1.5 m out, 5 m high; one on the east wall.
+  const auto bay = [&](const Eigen::Vector3d& corner, const Eigen::Vector3d& along,
+                       const Eigen::Vector3d& out, double height) {
+    add(corner + out, along, height * z, w);          // front
+    add(corner, out, height * z, w);                  // side
+    add(corner + along, out, height * z, w);          // other side
+    add(corner + height * z, along, out, w);          // roof
+  };
+  bay({-3.0, -kHalfY, 0}, 4.0 * x, -1.5 * y, 5.0);
+  bay({kHalfX, -1.0, 0}, 3.0 * y, 1.2 * x, 3.5);
+  // The ground.
+  add({-kGroundHalfSize, -kGroundHalfSize, 0}, 2 * kGroundHalfSize * x,
+      2 * kGroundHalfSize * y, kGroundTexelsPerMetre);
+  return facets;
+}
 
 std::vector<Shot> MakePhotoSession(int num_photos, std::uint32_t seed) {
   const std::vector<Loop> loops = {{1.6, 10.0}, {1.6, 16.0}, {4.5, 12.0}, {1.6, 10.0},

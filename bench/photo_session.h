@@ -21,6 +21,19 @@ struct Shot {
   double distance_to_building;  // to the footprint, metres
 };
 
+// One plane of the scene: the parallelogram origin + a u + b v, a and b in
+// [0, 1], textured at `texels_per_metre`. World z is up, the ground z = 0.
+struct BuildingFacet {
+  Eigen::Vector3d origin;
+  Eigen::Vector3d axis_u;
+  Eigen::Vector3d axis_v;
+  double texels_per_metre = 0;
+};
+// The scene's facets, in the order their textures are seeded: the four
+// walls (south, east, north, west; the building has no roof), the two bays
+// (front, sides and roof each), the ground.
+std::vector<BuildingFacet> BuildingFacets();
+
 // The session's camera as Camera::FromString reads it: a 3:2 sensor `width`
 // pixels wide behind a 30 mm-equivalent lens (f = 30/36 of the width), the
 // principal point at the image centre.

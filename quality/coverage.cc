@@ -44,6 +44,9 @@ struct View {
   image_t image_id = kInvalidImageId;
   Eigen::Vector3d center = Eigen::Vector3d::Zero();
   double focal = 0;
+  // Where it looked: the mean of the points used that it observes.
+  Eigen::Vector3d looked_at = Eigen::Vector3d::Zero();
+  int num_looked_at = 0;
 };
 
 // One point the surface is built from, with the views that observe it.
@@ -97,6 +100,34 @@ Eigen::Vector3d UpFromCameras(const Eigen::Matrix3d& right_scatter,
   return up.normalized();
 }
 
+// How far round the object a step goes: the photographer's own spacing (the
+// median, over the shots, of the angle round the vertical axis through the
+// object's centre to the nearest other shot), at most `max_step`. Each new
+// area must be seen twice before a later step can match it: a step as wide
+// as the walk's own spacing keeps that, as the walk did.
+double StepRound(const std::vector<View>& views, const Eigen::Vector3d& pivot,
+                 const Eigen::Vector3d& up, double max_step) {
+  const Eigen::Vector3d a = up.unitOrthogonal();
+  const Eigen::Vector3d b = up.cross(a);
+  std::vector<double> azimuths;
+  for (const View& view : views) {
+    const Eigen::Vector3d offset = view.center - pivot;
+    if ((offset - offset.dot(up) * up).norm() <= 0) continue;
+    azimuths.push_back(std::atan2(offset.dot(b), offset.dot(a)));
+  }
+  if (azimuths.size() < 2) return max_step;
+  std::sort(azimuths.begin(), azimuths.end());
+  const std::size_t n = azimuths.size();
+  std::vector<double> nearest(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const double before = i > 0 ? azimuths[i] - azimuths[i - 1] : azimuths[0] + 2 * kPi - azimuths[n - 1];
+    const double after = i + 1 < n ? azimuths[i + 1] - azimuths[i] : azimuths[0] + 2 * kPi - azimuths[n - 1];
+    nearest[i] = std::min(before, after);
+  }
+  // Shots from one place (nearly 0 apart) step at least a degree.
+  return std::clamp(Median(nearest), kPi / 180.0, max_step);
+}
+
 // Camera looking along `direction` from `position`, its image's y axis (down)
 // against `up`.
 Rigid3d LookAt(const Eigen::Vector3d& position, const Eigen::Vector3d& direction,
@@ -128,6 +159,7 @@ void Coverage::Options::Check() const {
   require(max_suggestions >= 0, "max_suggestions must not be negative");
   require(min_suggestion_share >= 0 && min_suggestion_share <= 1,
           "min_suggestion_share must be in [0, 1]");
+  require(max_step_deg > 0 && max_step_deg <= 180, "max_step_deg must be in (0, 180]");
 }
 
 const char* FaceClassName(Coverage::FaceClass face_class) {
@@ -136,6 +168,7 @@ const char* FaceClassName(Coverage::FaceClass face_class) {
     case Coverage::FaceClass::kNarrowAngle: return "narrow_angle";
     case Coverage::FaceClass::kFewViews: return "few_views";
     case Coverage::FaceClass::kUnderside: return "underside";
+    case Coverage::FaceClass::kOutOfReach: return "out_of_reach";
   }
   return "unknown";
 }
@@ -146,6 +179,7 @@ std::array<std::uint8_t, 3> FaceClassColour(Coverage::FaceClass face_class) {
     case Coverage::FaceClass::kNarrowAngle: return {255, 150, 20};
     case Coverage::FaceClass::kFewViews: return {230, 40, 40};
     case Coverage::FaceClass::kUnderside: return {128, 128, 128};
+    case Coverage::FaceClass::kOutOfReach: return {110, 140, 190};
   }
   return {0, 0, 0};
 }
@@ -201,6 +235,10 @@ void Coverage::Update(const Reconstruction& reconstruction) {
     std::sort(used.views.begin(), used.views.end());
     used.views.erase(std::unique(used.views.begin(), used.views.end()), used.views.end());
     if (used.views.empty()) continue;
+    for (const std::size_t v : used.views) {
+      views[v].looked_at += used.xyz;
+      ++views[v].num_looked_at;
+    }
     cgal_points.emplace_back(ToCgal(used.xyz), points.size());
     points.push_back(std::move(used));
   }
@@ -274,9 +312,31 @@ void Coverage::Update(const Reconstruction& reconstruction) {
     }
   }
 
+  // The photographer's own distance and heights bound where a shot can go.
+  const double distance = distances.empty() ? 1.0 : Median(distances);
+  double low = std::numeric_limits<double>::infinity();
+  double high = -std::numeric_limits<double>::infinity();
+  for (const View& view : views) {
+    low = std::min(low, up_.dot(view.center));
+    high = std::max(high, up_.dot(view.center));
+  }
+  const double cos_incidence = std::cos(options_.max_incidence_deg * kPi / 180.0);
+  // Where a photographer would stand for a face: out along its normal at
+  // their distance, at a height they have used.
+  const auto standpoint = [&](const Eigen::Vector3d& at, const Eigen::Vector3d& normal) {
+    Eigen::Vector3d position = at + distance * normal;
+    const double height = up_.dot(position);
+    position += up_ * (std::clamp(height, low, high) - height);
+    return position;
+  };
+  // Seen from there less obliquely than the views that count.
+  const auto reachable = [&](const Eigen::Vector3d& at, const Eigen::Vector3d& normal) {
+    const Eigen::Vector3d to = standpoint(at, normal) - at;
+    return to.norm() > 0 && normal.dot(to) >= cos_incidence * to.norm();
+  };
+
   // The surface: facets between a cell no ray crossed and empty space
   // (a crossed cell or the outside), facing the empty side.
-  const double cos_incidence = std::cos(options_.max_incidence_deg * kPi / 180.0);
   std::vector<std::pair<double, double>> gsd_by_area;
   for (auto cell = triangulation.finite_cells_begin(); cell != triangulation.finite_cells_end();
        ++cell) {
@@ -315,6 +375,8 @@ void Coverage::Update(const Reconstruction& reconstruction) {
       face.gsd = gsds.empty() ? 0 : Median(gsds);
       if (face.normal.dot(up_) < -0.5) {
         face.face_class = FaceClass::kUnderside;
+      } else if (!reachable(centroid, face.normal)) {
+        face.face_class = FaceClass::kOutOfReach;
       } else if (face.views < options_.min_views) {
         face.face_class = FaceClass::kFewViews;
       } else if (face.max_angle_deg < options_.min_angle_deg) {
@@ -324,11 +386,13 @@ void Coverage::Update(const Reconstruction& reconstruction) {
       }
       switch (face.face_class) {
         case FaceClass::kUnderside: summary_.underside_area += face.area; break;
+        case FaceClass::kOutOfReach: summary_.out_of_reach_area += face.area; break;
         case FaceClass::kFewViews: summary_.few_views_area += face.area; break;
         case FaceClass::kNarrowAngle: summary_.narrow_angle_area += face.area; break;
         case FaceClass::kWellCovered: summary_.well_covered_area += face.area; break;
       }
-      if (face.face_class != FaceClass::kUnderside && face.gsd > 0) {
+      if (face.face_class != FaceClass::kUnderside &&
+          face.face_class != FaceClass::kOutOfReach && face.gsd > 0) {
         gsd_by_area.emplace_back(face.gsd, face.area);
       }
       faces_.push_back(face);
@@ -352,13 +416,15 @@ void Coverage::Update(const Reconstruction& reconstruction) {
     }
   }
 
-  // The photographer's own distance and heights bound where a shot can go.
-  const double distance = distances.empty() ? 1.0 : Median(distances);
-  double low = std::numeric_limits<double>::infinity();
-  double high = -std::numeric_limits<double>::infinity();
+  // The object's centre, which a photographer walks round.
+  Eigen::Vector3d pivot = Eigen::Vector3d::Zero();
+  for (const UsedPoint& point : points) pivot += point.xyz;
+  pivot /= double(points.size());
+  // The nearest the photographer stood to it, on the level.
+  double nearest_distance = std::numeric_limits<double>::infinity();
   for (const View& view : views) {
-    low = std::min(low, up_.dot(view.center));
-    high = std::max(high, up_.dot(view.center));
+    const Eigen::Vector3d offset = view.center - pivot;
+    nearest_distance = std::min(nearest_distance, (offset - offset.dot(up_) * up_).norm());
   }
   // Sides of the object, named from the first shot: "front" faces it.
   const Rigid3d& first = *reconstruction.image(views.front().image_id).cam_from_world;
@@ -412,20 +478,63 @@ void Coverage::Update(const Reconstruction& reconstruction) {
     const Eigen::Vector3d centroid = group.centroid / group.area;
     if (group.normal.norm() <= 0) continue;
     const Eigen::Vector3d normal = group.normal.normalized();
+    if (!reachable(centroid, normal)) continue;
     Suggestion suggestion;
-    suggestion.position = centroid + distance * normal;
-    // At a height the photographer has used.
-    const double height = up_.dot(suggestion.position);
-    suggestion.position += up_ * (std::clamp(height, low, high) - height);
-    const Eigen::Vector3d to_side = centroid - suggestion.position;
+    suggestion.position = standpoint(centroid, normal);
+    // A shot further round the object than max_step_deg from every shot
+    // matches none of them: then the suggestion is the nearest shot (round
+    // the vertical axis through the object's centre) taken again
+    // max_step_deg further round towards the side, looking where it looked
+    // turned as far: the next step of a walk round the object.
+    const auto azimuth = [&](const Eigen::Vector3d& p) {
+      const Eigen::Vector3d offset = p - pivot;
+      return std::atan2(offset.dot(right), offset.dot(-forward));
+    };
+    const auto wrap = [](double angle) {
+      return std::remainder(angle, 2 * kPi);
+    };
+    Eigen::Vector3d target = centroid;
+    bool stepping = false;
+    const double step = StepRound(views, pivot, up_, options_.max_step_deg * kPi / 180.0);
+    const Eigen::Vector3d ideal_offset = suggestion.position - pivot;
+    if ((ideal_offset - ideal_offset.dot(up_) * up_).norm() > 1e-6 * distance) {
+      const double ideal = azimuth(suggestion.position);
+      const View* nearest = nullptr;
+      double apart = 0;
+      for (const View& view : views) {
+        const double d = wrap(ideal - azimuth(view.center));
+        if (nearest == nullptr || std::abs(d) < std::abs(apart)) {
+          nearest = &view;
+          apart = d;
+        }
+      }
+      if (nearest != nullptr && std::abs(apart) > step) {
+        // right = up x (-forward): a turn by +a about up adds a to the
+        // azimuth.
+        const Eigen::AngleAxisd rotation(apart > 0 ? step : -step, up_);
+        suggestion.position = pivot + rotation * (nearest->center - pivot);
+        if (nearest->num_looked_at > 0) {
+          target = pivot + rotation * (nearest->looked_at / nearest->num_looked_at - pivot);
+        }
+        stepping = true;
+      }
+    }
+    // At a distance from the object the photographer has stood at: not
+    // inside it (a standpoint for a roof's slope may fall there).
+    Eigen::Vector3d offset = suggestion.position - pivot;
+    const double along_up = offset.dot(up_);
+    Eigen::Vector3d level = offset - along_up * up_;
+    if (level.norm() < nearest_distance) {
+      if (level.norm() <= 1e-9 * distance) continue;
+      level *= nearest_distance / level.norm();
+      suggestion.position = pivot + level + along_up * up_;
+    }
+    const Eigen::Vector3d to_side = target - suggestion.position;
     if (to_side.norm() <= 0) continue;
     suggestion.direction = to_side.normalized();
-    // From the heights used, the side must be seen less obliquely than the
-    // views that count: a roof above every shot is out of reach.
-    if (-normal.dot(suggestion.direction) < cos_incidence) continue;
     suggestion.cam_from_world = LookAt(suggestion.position, suggestion.direction, up_);
     suggestion.area_share = share;
-    char reason[200];
+    char reason[240];
     if (group.few_views_area >= 0.5 * group.area) {
       std::snprintf(reason, sizeof(reason), "%.0f %% of the surface, on %s, seen by fewer than %d photos",
                     100 * share, kSideNames[side], options_.min_views);
@@ -434,6 +543,8 @@ void Coverage::Update(const Reconstruction& reconstruction) {
                     100 * share, kSideNames[side], options_.min_angle_deg);
     }
     suggestion.reason = reason;
+    if (stepping) suggestion.reason += " (a step towards it, near enough to the shots to match)";
+    suggestion.step = stepping;
     suggestions_.push_back(std::move(suggestion));
   }
   summary_.ms =

@@ -45,6 +45,14 @@ class Coverage {
     // least this share of the reachable surface under-covered.
     int max_suggestions = 5;
     double min_suggestion_share = 0.01;
+    // A side further round the object from every shot than a step gets a
+    // step towards it from the nearest shot: the photographer's own spacing
+    // round the object (the median angle from each shot to the nearest
+    // other), at most this. SIFT takes some 30 degrees of change of
+    // viewpoint on a facade seen square on, less at a grazing angle (a step
+    // round a corner); and an area a step adds is seen once, so the next
+    // step must overlap the last two.
+    double max_step_deg = 20.0;
 
     // Throws std::invalid_argument naming the bad option.
     void Check() const;
@@ -55,6 +63,7 @@ class Coverage {
     kNarrowAngle,  // enough views, too narrow an angle
     kFewViews,     // fewer than min_views
     kUnderside,    // faces the ground: no photographer reaches it
+    kOutOfReach,   // not seen from the heights and distance shot from (a roof)
   };
 
   struct Face {
@@ -75,17 +84,21 @@ class Coverage {
     Rigid3d cam_from_world;  // looking along direction, image up along `up`
     double area_share = 0;   // of the reachable surface it would cover
     std::string reason;
+    // A step towards the side (max_step_deg from the nearest shot), not yet
+    // the view of it.
+    bool step = false;
   };
 
   struct Summary {
     std::size_t points_used = 0;   // of the model's, for the surface
     std::size_t rays = 0;
     std::size_t faces = 0;
-    double area = 0;               // reachable: undersides excluded
+    double area = 0;               // reachable: undersides and out of reach excluded
     double well_covered_area = 0;
     double narrow_angle_area = 0;
     double few_views_area = 0;
     double underside_area = 0;
+    double out_of_reach_area = 0;
     double well_covered_share = 0; // of the reachable area
     double median_gsd = 0;         // area-weighted over faces with views
     double ms = 0;
@@ -118,7 +131,7 @@ class Coverage {
 const char* FaceClassName(Coverage::FaceClass face_class);
 // The colour a face is drawn in (surface.ply, the live view's legend): green
 // well covered, orange too narrow an angle, red too few views, grey an
-// underside.
+// underside, grey-blue out of reach.
 std::array<std::uint8_t, 3> FaceClassColour(Coverage::FaceClass face_class);
 
 }  // namespace flysfm

@@ -586,7 +586,8 @@ void List(const std::string& prefix, const QualityTracker::Options& o, Out* out)
 
 void List(const std::string& prefix, const Coverage::Options& o, Out* out) {
   [[maybe_unused]] const auto& [min_views, min_angle_deg, max_incidence_deg, max_points,
-                                max_rays_per_point, max_suggestions, min_suggestion_share] = o;
+                                max_rays_per_point, max_suggestions, min_suggestion_share,
+                                max_step_deg] = o;
   OPTION(min_views, "A well-covered face is faced by at least this many cameras (a run takes quality.min_views)");
   OPTION(min_angle_deg, "... with a largest angle between their rays of at least this (a run takes quality.min_angle_deg)");
   OPTION(max_incidence_deg, "A camera counts for a face it looks at less obliquely than this, degrees from its normal");
@@ -594,6 +595,7 @@ void List(const std::string& prefix, const Coverage::Options& o, Out* out) {
   OPTION(max_rays_per_point, "... each carving with at most this many of its rays");
   OPTION(max_suggestions, "Suggested viewpoints, at most");
   OPTION(min_suggestion_share, "A side is suggested when at least this share of the reachable surface is under-covered there");
+  OPTION(max_step_deg, "A suggestion is at most this far round the object from the nearest shot, degrees (a step towards a far side)");
 }
 
 void List(const std::string& prefix, const ViewServerOptions& o, Out* out) {

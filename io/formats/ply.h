@@ -26,10 +26,10 @@ void WritePly(const Reconstruction& reconstruction, const std::filesystem::path&
 // The coverage surface (quality/coverage.h) as a binary little-endian PLY,
 // written atomically: three float vertices per face (faces share none), and
 // per face its corners, its colour (FaceClassColour: green well covered,
-// orange too narrow an angle, red too few views, grey an underside), `int
-// views`, `float max_angle_deg`, `float gsd` (model units per pixel) and
-// `uchar coverage_class` (0 well covered, 1 narrow angle, 2 few views, 3
-// underside). MeshLab and CloudCompare show it coloured as it is.
+// orange too narrow an angle, red too few views, grey an underside,
+// grey-blue out of reach), `int views`, `float max_angle_deg`, `float gsd`
+// (model units per pixel) and `uchar coverage_class` (0 well covered, 1
+// narrow angle, 2 few views, 3 underside, 4 out of reach). MeshLab and CloudCompare show it coloured as it is.
 void WriteSurfacePly(const Coverage& coverage, const std::filesystem::path& path);
 
 }  // namespace flysfm

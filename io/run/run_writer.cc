@@ -55,6 +55,7 @@ nlohmann::json ToJson(const Coverage& coverage) {
                             {{"qw", q.w()}, {"qx", q.x()}, {"qy", q.y()}, {"qz", q.z()},
                              {"t", vector(suggestion.cam_from_world.translation)}}},
                            {"area_share", suggestion.area_share},
+                           {"step", suggestion.step},
                            {"reason", suggestion.reason}});
   }
   return {{"min_views", options.min_views},
@@ -68,6 +69,7 @@ nlohmann::json ToJson(const Coverage& coverage) {
           {"narrow_angle_area", summary.narrow_angle_area},
           {"few_views_area", summary.few_views_area},
           {"underside_area", summary.underside_area},
+          {"out_of_reach_area", summary.out_of_reach_area},
           {"well_covered_share", summary.well_covered_share},
           {"median_gsd", summary.median_gsd},
           {"up", vector(coverage.up())},

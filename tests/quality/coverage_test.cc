@@ -57,10 +57,10 @@ std::vector<Wall> Building() {
 }
 
 // A camera at azimuth `degrees` on a circle of radius 9 around the building,
-// 8 units above the ground, looking at its middle.
-Rigid3d CameraAt(double degrees) {
+// `height` above the ground (8: above its roof), looking at its middle.
+Rigid3d CameraAt(double degrees, double height = 8) {
   const double a = degrees * kPi / 180.0;
-  const Eigen::Vector3d center(9 * std::cos(a), -8, 9 * std::sin(a));
+  const Eigen::Vector3d center(9 * std::cos(a), -height, 9 * std::sin(a));
   const Eigen::Vector3d z = (Eigen::Vector3d(0, -1.5, 0) - center).normalized();
   const Eigen::Vector3d y = (Eigen::Vector3d(0, 1, 0) - z.y() * z).normalized();
   const Eigen::Vector3d x = y.cross(z);
@@ -72,7 +72,7 @@ Rigid3d CameraAt(double degrees) {
 // The model the engine would hold: every wall point a camera faces (at less
 // than 80 degrees from its normal: SIFT matches nothing more oblique) and
 // sees in its image, with its track; points seen once are not in it.
-Reconstruction Model(const std::vector<double>& azimuths) {
+Reconstruction Model(const std::vector<double>& azimuths, double height = 8) {
   Reconstruction model;
   const Camera camera = Camera::FromFocal(CameraModelId::kPinhole, 500, 640, 480);
   const camera_t camera_id = model.AddCamera(camera);
@@ -88,7 +88,7 @@ Reconstruction Model(const std::vector<double>& azimuths) {
   std::vector<std::vector<TrackElement>> tracks(points.size());
   std::vector<Rigid3d> poses;
   for (std::size_t i = 0; i < azimuths.size(); ++i) {
-    const Rigid3d pose = CameraAt(azimuths[i]);
+    const Rigid3d pose = CameraAt(azimuths[i], height);
     const Eigen::Vector3d center = ProjectionCenter(pose);
     std::vector<Eigen::Vector2d> keypoints;
     for (std::size_t p = 0; p < points.size(); ++p) {
@@ -161,6 +161,22 @@ TEST_CASE("Coverage: a building shot all around is well covered, its floor is an
   CHECK(coverage.suggestions().empty());
 }
 
+TEST_CASE("Coverage: a roof above every shot is out of reach, apart from the shares") {
+  // From 1.5 units up, below the roof (3): its points are never seen, and
+  // the hull closes over the walls' tops.
+  Coverage coverage;
+  coverage.Update(Model(Ring(false), 1.5));
+  const Coverage::Summary& summary = coverage.summary();
+  INFO("area " << summary.area << " out of reach " << summary.out_of_reach_area << " share "
+               << summary.well_covered_share);
+  CHECK(summary.out_of_reach_area == Approx(16).epsilon(0.1));
+  CHECK(summary.area == Approx(48).epsilon(0.05));
+  CHECK(summary.well_covered_share >= 0.95);
+  for (const Coverage::Suggestion& suggestion : coverage.suggestions()) {
+    CHECK(suggestion.reason.find("the top") == std::string::npos);
+  }
+}
+
 TEST_CASE("Coverage: a skipped wall is marked, and the first suggestion looks at it") {
   Coverage coverage;
   coverage.Update(Model(Ring(true)));
@@ -181,12 +197,17 @@ TEST_CASE("Coverage: a skipped wall is marked, and the first suggestion looks at
   const Coverage::Suggestion& first = coverage.suggestions().front();
   INFO("position " << first.position.transpose() << " direction "
                    << first.direction.transpose() << " reason " << first.reason);
-  // East of the wall, looking west at it, at the photographer's height.
+  // The nearest shots (due north and south of the building) are some 100
+  // degrees round from the wall's normal: the suggestion is a step of 30
+  // degrees from them, east of the wall's plane (it sees the wall), looking
+  // west at it, at the photographer's height.
+  CHECK(first.step);
   CHECK(first.position.x() > 2);
-  CHECK(first.direction.x() < -0.5);
+  CHECK(first.direction.x() < 0);
   CHECK(first.position.y() == Approx(-8).margin(1e-6));
   CHECK(first.area_share == Approx(12.0 / 64.0).margin(0.05));
   CHECK(first.reason.find("fewer than 3 photos") != std::string::npos);
+  CHECK(first.reason.find("a step towards it") != std::string::npos);
   // Its pose looks where it says, image up along up.
   const Eigen::Vector3d axis = first.cam_from_world.rotation.inverse() * Eigen::Vector3d::UnitZ();
   CHECK((axis - first.direction).norm() < 1e-9);
@@ -209,6 +230,8 @@ TEST_CASE("Coverage: a wall shot from one position only is seen under too narrow
   CHECK(recall >= 0.9);
   REQUIRE_FALSE(coverage.suggestions().empty());
   CHECK(coverage.suggestions().front().reason.find("less than 10 degrees") != std::string::npos);
+  // The three shots face the wall: no step needed.
+  CHECK_FALSE(coverage.suggestions().front().step);
 }
 
 // A building with a courtyard cut into its east side, x in [1, 2] and z in

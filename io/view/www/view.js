@@ -380,9 +380,11 @@
 
   // --- the coverage surface and the suggested viewpoints -------------------
   // Faces coloured by their coverage (FaceClassColour in quality/coverage.cc:
-  // well covered, too narrow an angle, too few views, underside), half
+  // well covered, too narrow an angle, too few views, underside, out of
+  // reach), half
   // transparent over the points; each suggestion a magenta ghost camera.
-  const faceColours = [[40, 200, 70], [255, 150, 20], [230, 40, 40], [128, 128, 128]];
+  const faceColours = [[40, 200, 70], [255, 150, 20], [230, 40, 40], [128, 128, 128],
+                       [110, 140, 190]];
   const surfaceMaterial = new THREE.MeshBasicMaterial({
     vertexColors: THREE.VertexColors, transparent: true, opacity: 0.45,
     side: THREE.DoubleSide, depthWrite: false });
