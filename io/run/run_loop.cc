@@ -268,7 +268,10 @@ bool RunState::WriteOutputs(bool final) {
 std::optional<double> RunState::UpdateCoverage(bool now) {
   if (!coverage_) return std::nullopt;
   if (!model_changed_since_coverage_) return 0.0;
-  if (!now && SecondsSince(last_coverage_) < options_.refresh_seconds) return 0.0;
+  // At most every refresh_seconds, and never more than a tenth of the run's
+  // time: a slow machine or a sanitizer build measures less often.
+  const double interval = std::max(options_.refresh_seconds, 10 * coverage_->summary().ms / 1000);
+  if (!now && SecondsSince(last_coverage_) < interval) return 0.0;
   coverage_->Update(engine_->reconstruction());
   last_coverage_ = Clock::now();
   model_changed_since_coverage_ = false;

@@ -79,8 +79,9 @@ class RunLoop {
     QualityTracker::Options quality;
     // The coverage surface and the suggested viewpoints (summary.json's
     // "coverage", surface.ply, log.jsonl's ms.coverage, the live view), with
-    // an output folder; recomputed with the output files, at most every
-    // refresh_seconds, and at the end. Its rule of "well covered" is the
+    // an output folder; recomputed when the model changed, at most every
+    // refresh_seconds and every ten times its last cost (it takes at most a
+    // tenth of the run), and at the end. Its rule of "well covered" is the
     // points' (quality.min_views, quality.min_angle_deg).
     bool coverage = true;
     Coverage::Options coverage_options;
