@@ -131,6 +131,24 @@ void AppendString(const std::string& value, std::string* out) {
   *out += nlohmann::json(value).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
 }
 
+// "q":[x,y,z,w],"t":[x,y,z]: a cam_from_world, the rotation as three.js's
+// Quaternion takes it.
+void AppendPose(const Eigen::Quaterniond& rotation, const Eigen::Vector3d& translation,
+                std::string* out) {
+  *out += "\"q\":[";
+  const double q[4] = {rotation.x(), rotation.y(), rotation.z(), rotation.w()};
+  for (int k = 0; k < 4; ++k) {
+    if (k > 0) *out += ',';
+    AppendNumber(q[k], out);
+  }
+  *out += "],\"t\":[";
+  for (int k = 0; k < 3; ++k) {
+    if (k > 0) *out += ',';
+    AppendNumber(translation[k], out);
+  }
+  *out += ']';
+}
+
 // "surface":{"share":..,"area":..,"xyz":[...],"classes":[...],
 // "suggestions":[{"q":[x,y,z,w],"t":[...],"share":..,"reason":".."}]}.
 void AppendSurface(const std::optional<ViewSurface>& surface, std::string* out) {
@@ -147,18 +165,9 @@ void AppendSurface(const std::optional<ViewSurface>& surface, std::string* out) 
   for (std::size_t i = 0; i < surface->suggestions.size(); ++i) {
     const ViewSurface::Suggestion& s = surface->suggestions[i];
     if (i > 0) *out += ',';
-    *out += "{\"q\":[";
-    const double q[4] = {s.rotation.x(), s.rotation.y(), s.rotation.z(), s.rotation.w()};
-    for (int k = 0; k < 4; ++k) {
-      if (k > 0) *out += ',';
-      AppendNumber(q[k], out);
-    }
-    *out += "],\"t\":[";
-    for (int k = 0; k < 3; ++k) {
-      if (k > 0) *out += ',';
-      AppendNumber(s.translation[k], out);
-    }
-    *out += "],\"share\":";
+    *out += '{';
+    AppendPose(s.rotation, s.translation, out);
+    *out += ",\"share\":";
     AppendNumber(s.area_share, out);
     *out += ",\"reason\":";
     AppendString(s.reason, out);
@@ -175,18 +184,9 @@ void AppendCameras(const std::vector<const ViewCamera*>& cameras, std::string* o
     *out += "{\"id\":" + std::to_string(c.image_id) +
             ",\"camera_id\":" + std::to_string(c.camera_id) + ",\"name\":";
     AppendString(c.name, out);
-    *out += ",\"q\":[";  // x, y, z, w as three.js's Quaternion takes them
-    const double q[4] = {c.rotation.x(), c.rotation.y(), c.rotation.z(), c.rotation.w()};
-    for (int k = 0; k < 4; ++k) {
-      if (k > 0) *out += ',';
-      AppendNumber(q[k], out);
-    }
-    *out += "],\"t\":[";
-    for (int k = 0; k < 3; ++k) {
-      if (k > 0) *out += ',';
-      AppendNumber(c.translation[k], out);
-    }
-    *out += "]}";
+    *out += ',';
+    AppendPose(c.rotation, c.translation, out);
+    *out += '}';
   }
   *out += ']';
 }
