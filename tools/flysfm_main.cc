@@ -1,5 +1,5 @@
-// The flysfm command-line program. Sub-commands are registered by the modules'
-// issues as they land (tools/commands.h); each prints its options with their
+// The flysfm command-line program. Sub-commands are registered by the tools
+// that provide them (tools/commands.h); each prints its options with their
 // defaults on --help.
 
 #include <iostream>

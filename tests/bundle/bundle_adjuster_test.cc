@@ -24,7 +24,7 @@ using testing::RmsReprojectionError;
 
 constexpr double kNoisePx = 0.5;
 
-// The reference scene: 30 cameras on an arc around 2 000 points.
+// The reference scene: 30 cameras on an arc around 2 000 points.
 testing::SyntheticScene ArcScene(double noise_px, std::uint32_t seed,
                                  const Camera& camera = Camera::FromFocal(
                                      CameraModelId::kPinhole, 500, 640, 480)) {

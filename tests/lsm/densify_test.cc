@@ -245,7 +245,7 @@ TEST_CASE(
     REQUIRE(total[edge] >= 50);
     REQUIRE(total[static_cast<int>(Truth::kDeeplyHidden)] >= 50);
     REQUIRE(total[static_cast<int>(Truth::kOutside)] >= 50);
-    // The criteria: >= 90 % of the visible points added, median
+    // The criteria: >= 90 % of the visible points added, median
     // position error below 0.1 px.
     CHECK(visible_added >= 0.9 * visible);
     REQUIRE(!all_errors.empty());
