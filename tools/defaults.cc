@@ -601,7 +601,7 @@ void List(const std::string& prefix, const Coverage::Options& o, Out* out) {
 void List(const std::string& prefix, const ViewServerOptions& o, Out* out) {
   [[maybe_unused]] const auto& [lan, port, token, max_clients, max_queued_messages,
                                 keepalive_seconds, write_timeout_seconds, thumbnail_width,
-                                three_js, orbit_controls_js] = o;
+                                max_list_thumbnails, three_js, orbit_controls_js] = o;
   OPTION(lan, "Serve the LAN (with a token) instead of this machine only");
   OPTION(port, "HTTP port (0: any free port)");
   OPTION(token, "The LAN token (empty: 128 random bits)");
@@ -609,7 +609,8 @@ void List(const std::string& prefix, const ViewServerOptions& o, Out* out) {
   OPTION(max_queued_messages, "Messages queued for a client before the whole model replaces them");
   OPTION(keepalive_seconds, "A comment goes to an idle stream this often (s)");
   OPTION(write_timeout_seconds, "A browser that takes no bytes this long is dropped (s)");
-  OPTION(thumbnail_width, "Width of the latest shot's thumbnail (px)");
+  OPTION(thumbnail_width, "Width of the shots' thumbnails (px)");
+  OPTION(max_list_thumbnails, "Thumbnails kept of pending and rejected shots (the oldest go first)");
   OPTION(three_js, "three.js library file");
   OPTION(orbit_controls_js, "three.js orbit controls file");
 }

@@ -293,7 +293,7 @@ void RunState::ProcessImage(PreparedFrame frame) {
     sources_[name] = frame.frame.source;
     ++images_in_by_source_[frame.frame.source];
   }
-  if (view_) view_->SetLatestShot(frame.image);
+  if (view_) view_->SetLatestShot(frame.image, name);
   if (hooks_.on_arrival) hooks_.on_arrival(*engine_, frame);
   if (quarantine_) quarantine_->BeginEngine(name);
   std::vector<ImageResult> results;

@@ -53,6 +53,18 @@ bool SameToken(const std::string& a, const std::string& b) {
 
 std::string EventChunk(const std::string& message) { return "data: " + message + "\n\n"; }
 
+// `image` at most `width` wide, as a JPEG; empty when it cannot be encoded.
+std::string ShrinkToJpeg(const cv::Mat& image, int width) {
+  cv::Mat small = image;
+  if (image.cols > width) {
+    const int height = std::max(1, int(std::lround(double(image.rows) * width / image.cols)));
+    cv::resize(image, small, cv::Size(width, height), 0, 0, cv::INTER_AREA);
+  }
+  std::vector<std::uint8_t> jpeg;
+  if (!cv::imencode(".jpg", small, jpeg, {cv::IMWRITE_JPEG_QUALITY, 80})) return "";
+  return std::string(jpeg.begin(), jpeg.end());
+}
+
 }  // namespace
 
 void ViewServerOptions::Check() const {
@@ -67,6 +79,9 @@ void ViewServerOptions::Check() const {
     throw std::invalid_argument("view keep-alive and write timeout must be positive");
   }
   if (thumbnail_width < 16) throw std::invalid_argument("view thumbnail_width must be >= 16");
+  if (max_list_thumbnails < 0) {
+    throw std::invalid_argument("view max_list_thumbnails must not be negative");
+  }
   for (const char c : token) {
     if (!std::isalnum(static_cast<unsigned char>(c))) {
       throw std::invalid_argument("the view token may hold letters and digits only");
@@ -117,12 +132,15 @@ ViewServer::ViewServer(const ViewServerOptions& options) : options_(options) {
   http_->Get("/favicon.ico", [](const httplib::Request&, httplib::Response& response) {
     response.status = 204;
   });
-  http_->Get("/thumbnail.jpg", [this](const httplib::Request&, httplib::Response& response) {
-    const std::string jpeg = Thumbnail();
+  // ?name=<shot>: a pending or rejected shot's; else the latest.
+  http_->Get("/thumbnail.jpg", [this](const httplib::Request& request,
+                                      httplib::Response& response) {
+    const bool named = request.has_param("name");
+    const std::string jpeg = named ? NamedThumbnail(request.get_param_value("name")) : Thumbnail();
     response.set_header("Cache-Control", "no-store");
     if (jpeg.empty()) {
       response.status = 404;
-      response.set_content("no shot yet\n", "text/plain");
+      response.set_content(named ? "no thumbnail of that shot\n" : "no shot yet\n", "text/plain");
       return;
     }
     response.set_content(jpeg, "image/jpeg");
@@ -214,6 +232,7 @@ void ViewServer::Publish(const ViewUpdate& update) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     const bool lists_changed = model_.Apply(update);
+    if (lists_changed) PruneListThumbnails();
     const auto message = std::make_shared<const std::string>(
         EventChunk(UpdateMessage(update, lists_changed ? &model_.snapshot() : nullptr)));
     for (const std::shared_ptr<Client>& client : clients_) {
@@ -230,12 +249,53 @@ void ViewServer::Publish(const ViewUpdate& update) {
   wake_.notify_all();
 }
 
-void ViewServer::SetLatestShot(const cv::Mat& image) {
+void ViewServer::SetLatestShot(const cv::Mat& image, const std::string& name) {
   // An image that could not be decoded keeps the previous shot on show.
   if (image.empty()) return;
+  cv::Mat previous;
+  std::string previous_name;
+  std::string previous_thumbnail;
+  {
+    std::lock_guard<std::mutex> lock(shot_mutex_);
+    previous = shot_;
+    previous_name = shot_name_;
+    if (thumbnail_sequence_ == shot_sequence_) previous_thumbnail = thumbnail_;
+    shot_ = image;
+    shot_name_ = name;
+    ++shot_sequence_;
+  }
+  if (previous_name.empty() || options_.max_list_thumbnails == 0) return;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const ViewSnapshot& lists = model_.snapshot();
+    if (!lists.pending.count(previous_name) && !lists.rejected.count(previous_name)) return;
+  }
+  if (previous_thumbnail.empty()) {
+    previous_thumbnail = ShrinkToJpeg(previous, options_.thumbnail_width);
+  }
+  if (previous_thumbnail.empty()) return;
   std::lock_guard<std::mutex> lock(shot_mutex_);
-  shot_ = image;
-  ++shot_sequence_;
+  if (list_thumbnails_.count(previous_name)) return;
+  list_thumbnails_[previous_name] = std::move(previous_thumbnail);
+  list_thumbnail_order_.push_back(previous_name);
+  while (int(list_thumbnail_order_.size()) > options_.max_list_thumbnails) {
+    list_thumbnails_.erase(list_thumbnail_order_.front());
+    list_thumbnail_order_.pop_front();
+  }
+}
+
+void ViewServer::PruneListThumbnails() {
+  const ViewSnapshot& lists = model_.snapshot();
+  std::lock_guard<std::mutex> lock(shot_mutex_);
+  std::deque<std::string> kept;
+  for (const std::string& name : list_thumbnail_order_) {
+    if (lists.pending.count(name) || lists.rejected.count(name)) {
+      kept.push_back(name);
+    } else {
+      list_thumbnails_.erase(name);
+    }
+  }
+  list_thumbnail_order_ = std::move(kept);
 }
 
 void ViewServer::SetStatus(const std::string& text) {
@@ -306,30 +366,38 @@ std::string ViewServer::NextChunk(const std::shared_ptr<Client>& client, bool* e
   return chunk;
 }
 
-std::string ViewServer::Thumbnail() {
+std::string ViewServer::Thumbnail(std::string* name) {
   cv::Mat shot;
   std::uint64_t sequence = 0;
   {
     std::lock_guard<std::mutex> lock(shot_mutex_);
+    if (name) *name = shot_name_;
     if (shot_.empty()) return "";
     if (thumbnail_sequence_ == shot_sequence_) return thumbnail_;
     shot = shot_;
     sequence = shot_sequence_;
   }
-  cv::Mat small = shot;
-  if (shot.cols > options_.thumbnail_width) {
-    const int height =
-        std::max(1, int(std::lround(double(shot.rows) * options_.thumbnail_width / shot.cols)));
-    cv::resize(shot, small, cv::Size(options_.thumbnail_width, height), 0, 0, cv::INTER_AREA);
-  }
-  std::vector<std::uint8_t> jpeg;
-  if (!cv::imencode(".jpg", small, jpeg, {cv::IMWRITE_JPEG_QUALITY, 80})) return "";
+  std::string jpeg = ShrinkToJpeg(shot, options_.thumbnail_width);
+  if (jpeg.empty()) return "";
   std::lock_guard<std::mutex> lock(shot_mutex_);
   if (sequence == shot_sequence_) {
-    thumbnail_.assign(jpeg.begin(), jpeg.end());
+    thumbnail_ = jpeg;
     thumbnail_sequence_ = sequence;
   }
-  return std::string(jpeg.begin(), jpeg.end());
+  return jpeg;
+}
+
+std::string ViewServer::NamedThumbnail(const std::string& name) {
+  {
+    std::lock_guard<std::mutex> lock(shot_mutex_);
+    const auto kept = list_thumbnails_.find(name);
+    if (kept != list_thumbnails_.end()) return kept->second;
+    if (name.empty() || name != shot_name_) return "";
+  }
+  // The latest may have changed meanwhile: only its own picture answers.
+  std::string latest_name;
+  std::string jpeg = Thumbnail(&latest_name);
+  return latest_name == name ? jpeg : "";
 }
 
 }  // namespace flysfm

@@ -1,7 +1,8 @@
 #pragma once
 
 // The live web view's HTTP server: the page, the system's three.js, the
-// latest shot as a thumbnail, and the model pushed as server-sent events
+// latest shot and the waiting and rejected shots as thumbnails, and the model
+// pushed as server-sent events
 // (docs/view.md). The engine thread publishes; HTTP worker threads serve.
 // Publishing never waits for a browser: it applies the update to the view's
 // own copy of the model and appends one shared message to each client's
@@ -11,7 +12,9 @@
 #include <atomic>
 #include <condition_variable>
 #include <cstdint>
+#include <deque>
 #include <list>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -45,6 +48,10 @@ struct ViewServerOptions {
   // A browser that takes no bytes for this long is dropped.
   double write_timeout_seconds = 5.0;
   int thumbnail_width = 320;
+  // Thumbnails kept of shots in the pending and rejected lists (about 20 KB
+  // each at the width above); past this the oldest go, and the page lists
+  // those shots without a picture.
+  int max_list_thumbnails = 256;
   // Debian's libjs-three (r111): the library and its orbit controls.
   std::string three_js = "/usr/share/javascript/three/three.min.js";
   std::string orbit_controls_js =
@@ -72,9 +79,12 @@ class ViewServer {
   // Engine thread. Cost: the update's size, plus a copy of pointers per
   // client; never a wait on a browser.
   void Publish(const ViewUpdate& update);
-  // The latest shot (BGR); kept by reference, shrunk only when asked for.
-  // An empty image (a shot that could not be decoded) is ignored.
-  void SetLatestShot(const cv::Mat& image);
+  // The latest shot (BGR) and its name; kept by reference, shrunk only when
+  // asked for. An empty image (a shot that could not be decoded) is ignored.
+  // The shot it replaces keeps a thumbnail if it is then pending or
+  // rejected (a shrink on this thread, for those shots only), so that the
+  // page can show what failed.
+  void SetLatestShot(const cv::Mat& image, const std::string& name = "");
   // What a long step of the run is doing (the terminal's progress line),
   // shown on the page until the next status or the end; a page opened
   // meanwhile gets it with the model.
@@ -96,7 +106,14 @@ class ViewServer {
   // The next bytes for `client`, waiting up to the keep-alive; empty when
   // the server stops. `ends`: they close the stream (the run's `end`).
   std::string NextChunk(const std::shared_ptr<Client>& client, bool* ends);
-  std::string Thumbnail();
+  // The latest shot's; `name`, when given, receives that shot's name.
+  std::string Thumbnail(std::string* name = nullptr);
+  // The thumbnail of a pending or rejected shot, or of the latest; empty
+  // when none is kept.
+  std::string NamedThumbnail(const std::string& name);
+  // Drops the kept thumbnails of shots no longer pending or rejected. With
+  // mutex_ held.
+  void PruneListThumbnails();
 
   ViewServerOptions options_;
   std::string token_;
@@ -117,8 +134,12 @@ class ViewServer {
   std::mutex shot_mutex_;
   cv::Mat shot_;
   std::uint64_t shot_sequence_ = 0;
+  std::string shot_name_;
   std::uint64_t thumbnail_sequence_ = 0;
   std::string thumbnail_;
+  // Name -> JPEG, and the names in the order they were kept.
+  std::map<std::string, std::string> list_thumbnails_;
+  std::deque<std::string> list_thumbnail_order_;
 };
 
 }  // namespace flysfm

@@ -12,6 +12,7 @@
 
 #include <catch2/catch.hpp>
 #include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include "io/synthetic/synthetic_source.h"
 #include "tests/testing/headless_browser.h"
@@ -34,7 +35,12 @@ std::filesystem::path ArtifactDir() {
   return dir;
 }
 
-// The rendered views as files, like a camera's card; returns the camera.
+// A shot of nothing (a lens cap, a grey sky) among the views: it cannot
+// register, so the page lists it with its thumbnail.
+constexpr const char* kBlankShot = "view102b.png";
+
+// The rendered views as files, like a camera's card, and the blank shot;
+// returns the camera.
 std::string WriteCapture(const std::filesystem::path& dir) {
   SyntheticCaptureOptions options;
   options.num_views = kViews;
@@ -45,6 +51,8 @@ std::string WriteCapture(const std::filesystem::path& dir) {
     out.write(reinterpret_cast<const char*>(frame.bytes.data()),
               std::streamsize(frame.bytes.size()));
   }
+  cv::imwrite((dir / kBlankShot).string(),
+              cv::Mat(capture.camera.height, capture.camera.width, CV_8UC3, cv::Scalar::all(128)));
   return capture.camera.ToString();
 }
 
@@ -103,6 +111,27 @@ void CheckFinishedPage(testing::HeadlessBrowser& browser, const std::filesystem:
   CHECK(state["points"] == points);
   CHECK(state["errors"].empty());
   for (const std::string& error : browser.errors()) FAIL_CHECK("browser: " << error);
+}
+
+// The blank shot is listed as pending or rejected, with its reason and the
+// thumbnail the server kept of it: a loaded grey picture.
+void CheckFailedShot(testing::HeadlessBrowser& browser) {
+  const nlohmann::json listed = browser.Evaluate(
+      "(() => { const items = Array.from(document.querySelectorAll('#pending li, #rejected li'));"
+      " return items.map(li => { const img = li.querySelector('img.shot'); return {text: "
+      "li.textContent, alt: img ? img.alt : '', width: img ? img.naturalWidth : 0, "
+      "complete: img ? img.complete : false}; }); })()");
+  INFO("listed " << listed.dump());
+  bool found = false;
+  for (const nlohmann::json& item : listed) {
+    if (item["alt"] != kBlankShot) continue;
+    found = true;
+    CHECK(item["text"].get<std::string>().find(std::string(kBlankShot) + ": ") == 0);
+    CHECK(browser.WaitFor("Array.from(document.querySelectorAll('img.shot')).some(img => img.alt "
+                          "=== '" + std::string(kBlankShot) + "' && img.complete && "
+                          "img.naturalWidth > 0)", 10));
+  }
+  CHECK(found);
 }
 
 // Chooses a colouring as a user does, in the page's menu.
@@ -226,6 +255,7 @@ TEST_CASE("view: a page opened as the run starts ends showing the run's model") 
     testing::HeadlessBrowser browser(chromium, run.dir / "profile");
     browser.Navigate(url);
     CheckFinishedPage(browser, run.out, ArtifactDir() / "view_start.png");
+    CheckFailedShot(browser);
     CheckColourings(browser, run.out);
     CheckSurface(browser, run.out);
   }

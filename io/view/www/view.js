@@ -521,15 +521,46 @@
     requestRender();
   });
 
+  // A pending or rejected shot's thumbnail, made once per shot and kept
+  // across list changes so that a long list is not fetched again on each.
+  // The server has none for a shot it never decoded, or when it serves a
+  // finished run: the picture then hides and the name and reason stay.
+  const listThumbnails = new Map();
+  function listThumbnail(name) {
+    let img = listThumbnails.get(name);
+    if (!img) {
+      img = document.createElement('img');
+      img.className = 'shot';
+      img.alt = name;
+      img.loading = 'lazy';
+      img.onerror = function () { img.style.display = 'none'; };
+      img.src = 'thumbnail.jpg' + (query ? query + '&' : '?') + 'name=' +
+        encodeURIComponent(name);
+      listThumbnails.set(name, img);
+    }
+    return img;
+  }
+
   function showList(id, list) {
     const ul = $(id);
     ul.textContent = '';
     for (const item of list) {
       const li = document.createElement('li');
-      li.textContent = item.reason ? item.name + ': ' + item.reason : item.name;
+      li.appendChild(listThumbnail(item.name));
+      const text = document.createElement('span');
+      text.textContent = item.reason ? item.name + ': ' + item.reason : item.name;
+      li.appendChild(text);
       ul.appendChild(li);
     }
     $(id + '-count').textContent = String(list.length);
+    // Shots in neither list (registered since) let their pictures go.
+    const listed = new Set();
+    for (const other of ['pending', 'rejected']) {
+      for (const li of $(other).children) listed.add(li.firstChild.alt);
+    }
+    for (const name of Array.from(listThumbnails.keys())) {
+      if (!listed.has(name)) listThumbnails.delete(name);
+    }
   }
 
   let shots = 0;

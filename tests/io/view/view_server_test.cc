@@ -241,6 +241,74 @@ TEST_CASE("On the network every request needs the printed token") {
   CHECK(ViewServer(random).token().size() >= 32);
 }
 
+// One line for `name` with `status`.
+ViewUpdate Line(const std::string& name, const std::string& status) {
+  ViewUpdate update;
+  ViewLine line;
+  line.name = name;
+  line.status = status;
+  line.reason = status == "registered" ? "" : "why";
+  update.lines.push_back(line);
+  return update;
+}
+
+// The decoded thumbnail at /thumbnail.jpg?name=`name`; empty for a 404.
+cv::Mat NamedThumbnail(httplib::Client& client, const std::string& name) {
+  const auto response = client.Get(("/thumbnail.jpg?name=" + name).c_str());
+  REQUIRE(response);
+  if (response->status == 404) return cv::Mat();
+  REQUIRE(response->status == 200);
+  return cv::imdecode(std::vector<std::uint8_t>(response->body.begin(), response->body.end()),
+                      cv::IMREAD_COLOR);
+}
+
+TEST_CASE("A pending or rejected shot keeps its thumbnail until it registers, in bounded number") {
+  ViewServerOptions options = TestOptions();
+  options.max_list_thumbnails = 2;
+  ViewServer server(options);
+  httplib::Client client("127.0.0.1", server.port());
+  // Each shot its own grey level, so that a thumbnail shows whose it is.
+  const auto shot = [](int grey) { return cv::Mat(300, 400, CV_8UC3, cv::Scalar::all(grey)); };
+  const auto grey_of = [](const cv::Mat& image) { return int(cv::mean(image)[0] + 0.5); };
+
+  server.SetLatestShot(shot(40), "a.jpg");
+  server.Publish(Line("a.jpg", "pending"));
+  // The latest answers by its name too.
+  cv::Mat a = NamedThumbnail(client, "a.jpg");
+  REQUIRE_FALSE(a.empty());
+  CHECK(a.cols == 320);
+  CHECK(std::abs(grey_of(a) - 40) <= 2);
+  server.SetLatestShot(shot(90), "b.jpg");
+  server.Publish(Line("b.jpg", "registered"));
+  // a.jpg waits: its picture stayed though the latest is b.jpg.
+  a = NamedThumbnail(client, "a.jpg");
+  REQUIRE_FALSE(a.empty());
+  CHECK(std::abs(grey_of(a) - 40) <= 2);
+  server.SetLatestShot(shot(140), "c.jpg");
+  // b.jpg registered: nothing kept of it, and the latest is not b's.
+  CHECK(NamedThumbnail(client, "b.jpg").empty());
+  server.Publish(Line("c.jpg", "rejected"));
+  server.SetLatestShot(shot(190), "d.jpg");
+  const cv::Mat c = NamedThumbnail(client, "c.jpg");
+  REQUIRE_FALSE(c.empty());
+  CHECK(std::abs(grey_of(c) - 140) <= 2);
+  CHECK(NamedThumbnail(client, "nothing.jpg").empty());
+
+  // a.jpg registers later: its picture goes.
+  server.Publish(Line("a.jpg", "registered"));
+  CHECK(NamedThumbnail(client, "a.jpg").empty());
+  CHECK_FALSE(NamedThumbnail(client, "c.jpg").empty());
+
+  // Past max_list_thumbnails the oldest goes first.
+  server.Publish(Line("d.jpg", "pending"));
+  server.SetLatestShot(shot(220), "e.jpg");
+  server.Publish(Line("e.jpg", "pending"));
+  server.SetLatestShot(shot(250), "f.jpg");
+  CHECK(NamedThumbnail(client, "c.jpg").empty());
+  CHECK_FALSE(NamedThumbnail(client, "d.jpg").empty());
+  CHECK_FALSE(NamedThumbnail(client, "e.jpg").empty());
+}
+
 TEST_CASE("The page and three.js and the thumbnail are served and bad requests get a 4xx") {
   ViewServer server(TestOptions());
   httplib::Client client("127.0.0.1", server.port());
@@ -313,6 +381,9 @@ TEST_CASE("Bad view options are refused with their name") {
   options = ViewServerOptions();
   options.token = "a b";
   CHECK_THROWS_WITH(options.Check(), Catch::Contains("token"));
+  options = ViewServerOptions();
+  options.max_list_thumbnails = -1;
+  CHECK_THROWS_WITH(options.Check(), Catch::Contains("max_list_thumbnails"));
   options = ViewServerOptions();
   options.three_js = "/nonexistent/three.js";
   options.port = 0;
