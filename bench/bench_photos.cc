@@ -9,7 +9,7 @@
 //
 //   bench_photos [--photos N] [--megapixels 6|24] [--calibrated] [--seed S]
 //                [--supersampling K] [--work DIR] [--window-budget MB] [--profile]
-//                [--data DIR] [--no-real] [--glibc-malloc-defaults]
+//                [--data DIR] [--no-real] [--glibc-malloc-defaults] [--out DIR]
 //
 // After the synthetic session, the same per-photo figures on the real 6 MP
 // sets of --data: fountain-P11 and sceaux_castle, each with its K given and
@@ -24,6 +24,10 @@
 // LsmImageStore::Options::window_budget_megabytes. --glibc-malloc-defaults
 // leaves the allocator as glibc sets it, the baseline of core/malloc_policy.h.
 // --profile adds bench/photo_profile.h's offline look at verification.
+// --out DIR runs the session with an output folder, as `flysfm batch --out`
+// does, so that the quality measures and the coverage surface are kept
+// current, and prints their cost per photo from DIR/log.jsonl (outside the
+// engine's all-stages time), its growth and the surface's updates.
 
 #include <unistd.h>
 
@@ -32,6 +36,7 @@
 #include <fstream>
 #include <iostream>
 #include <map>
+#include <numeric>
 #include <optional>
 #include <string>
 #include <vector>
@@ -68,6 +73,7 @@ struct Flags {
   bool no_real = false;
   bool glibc_malloc_defaults = false;
   bool render_only = false;
+  std::string out;
 };
 
 // ", the initial pairs' F gave N px" when they replaced the guess.
@@ -262,6 +268,67 @@ nlohmann::json AccuracyFigures(const Flags& flags, const RenderedSession& render
           {"focal_length_from_pairs_px", session.focal_length_from_pairs.value_or(0)}};
 }
 
+double MeanOf(const std::vector<double>& values, std::size_t begin, std::size_t end) {
+  end = std::min(end, values.size());
+  begin = std::min(begin, end);
+  if (begin == end) return 0;
+  return std::accumulate(values.begin() + std::ptrdiff_t(begin),
+                         values.begin() + std::ptrdiff_t(end), 0.0) / double(end - begin);
+}
+
+// What the photographer's feedback adds to each photo (--out): the quality
+// tracker's update and the coverage surface's, from the first log.jsonl
+// record of each photo (the one of its arrival, which carries them). The
+// surface is measured on some photos only (at most every refresh and a
+// tenth of the run), so besides the median the mean per photo (its
+// amortised cost) and its growth, last 50 over photos 50-100.
+nlohmann::json FeedbackFigures(const fs::path& out, const std::vector<Frame>& frames) {
+  std::map<std::string, std::pair<double, double>> first;  // name -> quality, coverage ms
+  std::ifstream log(out / "log.jsonl");
+  for (std::string line; std::getline(log, line);) {
+    const nlohmann::json record = nlohmann::json::parse(line, nullptr, false);
+    if (record.is_discarded() || !record.contains("name") || !record.contains("ms")) continue;
+    const nlohmann::json& ms = record["ms"];
+    first.emplace(record["name"].get<std::string>(),
+                  std::make_pair(ms.value("quality", 0.0), ms.value("coverage", 0.0)));
+  }
+  std::vector<double> quality, coverage, added, coverage_updates;
+  for (const Frame& frame : frames) {
+    const auto found = first.find(frame.name);
+    if (found == first.end()) continue;
+    quality.push_back(found->second.first);
+    coverage.push_back(found->second.second);
+    added.push_back(found->second.first + found->second.second);
+    if (found->second.second > 0) coverage_updates.push_back(found->second.second);
+  }
+  const std::size_t n = added.size();
+  const double mean_early = MeanOf(added, 50, 100);
+  const double mean_late = MeanOf(added, n >= 50 ? n - 50 : 0, n);
+  const double mean_growth = mean_early > 0 ? mean_late / mean_early : 0;
+  const nlohmann::json added_stats = bench::Stats(added);
+  std::printf("feedback (quality + coverage, outside the engine), %zu photos: per photo median "
+              "%.1f ms, p95 %.1f ms, max %.1f ms, mean %.1f ms; quality median %.1f ms; surface "
+              "measured on %zu photos, median %.1f ms, max %.1f ms; mean per photo over photos "
+              "50-100 %.1f ms, last 50 %.1f ms (growth %.2f); median growth %.2f\n",
+              n, added_stats["median"].get<double>(), added_stats["p95"].get<double>(),
+              added_stats["max"].get<double>(), MeanOf(added, 0, n), Median(quality),
+              coverage_updates.size(), Median(coverage_updates),
+              coverage_updates.empty()
+                  ? 0.0
+                  : *std::max_element(coverage_updates.begin(), coverage_updates.end()),
+              mean_early, mean_late, mean_growth, bench::Growth(added, 50, 50));
+  return {{"photos_logged", n},
+          {"added_ms", added_stats},
+          {"added_mean_ms", MeanOf(added, 0, n)},
+          {"quality_median_ms", Median(quality)},
+          {"coverage_updates", coverage_updates.size()},
+          {"coverage_update_ms", bench::Stats(coverage_updates)},
+          {"added_mean_ms_50_100", mean_early},
+          {"added_mean_ms_last50", mean_late},
+          {"added_mean_growth", mean_growth},
+          {"added_median_growth", bench::Growth(added, 50, 50)}};
+}
+
 // --render-only: the photos stay in `dir` for `flysfm batch` (scripts/
 // bench_compare.sh runs two revisions on them), with their exact poses as a
 // TUM trajectory (groundtruth.txt, camera-to-world; the timestamp of photo i
@@ -313,6 +380,10 @@ int Main(const Flags& flags) {
   bench::SessionOptions session_options;
   session_options.run.print = false;
   session_options.run.between_images = RunLoop::Options::BetweenImages::kNothing;
+  if (!flags.out.empty()) {
+    fs::remove_all(flags.out);
+    session_options.run.out = flags.out;
+  }
   int index = 0;
   session_options.on_image = [&](const Engine& engine, const std::vector<ImageResult>& out,
                                  const StageTimes& times, double engine_ms) {
@@ -332,6 +403,7 @@ int Main(const Flags& flags) {
   std::printf("memory: RSS %.0f MB before the engine; malloc policy %s\n", rss_before_mb,
               malloc_policy ? "applied" : "refused: glibc's defaults");
   json.update(AccuracyFigures(flags, rendered, model, session));
+  if (!flags.out.empty()) json["feedback"] = FeedbackFigures(flags.out, rendered.frames);
   json.update({{"bench", "photos"},
                {"photos", flags.num_photos},
                {"width", rendered.camera.width},
@@ -380,6 +452,9 @@ int main(int argc, char** argv) {
   app.add_flag("--render-only", flags.render_only,
                "Only render the photos into --work, with groundtruth.txt and camera.txt, for "
                "`flysfm batch` (scripts/bench_compare.sh)");
+  app.add_option("--out", flags.out,
+                 "Run with this output folder (emptied first), the quality measures and "
+                 "coverage surface kept current, and print their cost per photo");
   CLI11_PARSE(app, argc, argv);
   if (flags.render_only && flags.work.empty()) {
     std::fprintf(stderr, "bench_photos: --render-only needs --work DIR\n");

@@ -6,7 +6,10 @@
 // with the model. (2) In headless chromium: a model of --points points
 // (1 million) sent to the page, then the mean frame time while the view
 // orbits (the page then draws a subset, docs/view.md) and when it is still,
-// as the page measures it. Ends with one line of JSON.
+// as the page measures it; then the same with a coverage surface of the
+// largest size Coverage makes (quality/coverage.h: at most max_points
+// vertices, so a closed surface of 2 max_points - 4 faces) and its
+// suggested viewpoints added. Ends with one line of JSON.
 //
 //   bench_view [--images N] [--points P] [--skip-browser]
 
@@ -28,6 +31,7 @@
 #include <nlohmann/json.hpp>
 
 #include "io/view/view_server.h"
+#include "quality/coverage.h"
 #include "tests/testing/headless_browser.h"
 #include "tests/testing/temp_dir.h"
 
@@ -76,6 +80,66 @@ class DrainingReader {
   std::atomic<std::size_t> bytes_{0};
   std::thread thread_;
 };
+
+// A sphere of radius 10 round the points' disc, its faces cycling through
+// the classes, with Coverage's most suggestions round it: the page's largest
+// surface message.
+ViewSurface LargestSurface() {
+  const Coverage::Options options;
+  const int target_faces = 2 * options.max_points - 4;
+  const int segments = 100;
+  const int rings = target_faces / (2 * segments);
+  const auto vertex = [&](int ring, int segment) {
+    const double theta = M_PI * ring / rings;
+    const double phi = 2 * M_PI * segment / segments;
+    return Eigen::Vector3d(10 * std::sin(theta) * std::cos(phi), 10 * std::cos(theta),
+                           20 + 10 * std::sin(theta) * std::sin(phi));
+  };
+  ViewSurface surface;
+  const auto add_face = [&](const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                            const Eigen::Vector3d& c) {
+    for (const Eigen::Vector3d* corner : {&a, &b, &c}) {
+      surface.xyz.insert(surface.xyz.end(),
+                         {float(corner->x()), float(corner->y()), float(corner->z())});
+    }
+    surface.classes.push_back(std::uint8_t(surface.classes.size() % 5));
+  };
+  for (int ring = 0; ring < rings; ++ring) {
+    for (int segment = 0; segment < segments; ++segment) {
+      const Eigen::Vector3d a = vertex(ring, segment), b = vertex(ring + 1, segment);
+      const Eigen::Vector3d c = vertex(ring + 1, segment + 1), d = vertex(ring, segment + 1);
+      add_face(a, b, c);
+      add_face(a, c, d);
+    }
+  }
+  surface.well_covered_share = 0.2;
+  surface.area = 4 * M_PI * 100;
+  for (int s = 0; s < options.max_suggestions; ++s) {
+    const double phi = 2 * M_PI * s / options.max_suggestions;
+    const Eigen::Vector3d centre(25 * std::cos(phi), 0, 20 + 25 * std::sin(phi));
+    // Looking at the sphere's centre, image up along -y.
+    const Eigen::Vector3d z = (Eigen::Vector3d(0, 0, 20) - centre).normalized();
+    const Eigen::Vector3d x = Eigen::Vector3d(0, 1, 0).cross(z).normalized();
+    Eigen::Matrix3d rotation;
+    rotation << x.transpose(), z.cross(x).transpose(), z.transpose();
+    ViewSurface::Suggestion suggestion;
+    suggestion.rotation = Eigen::Quaterniond(rotation);
+    suggestion.translation = -(rotation * centre);
+    suggestion.area_share = 0.1;
+    suggestion.reason = "10 % of the surface, side " + std::to_string(s + 1) + " (bench)";
+    surface.suggestions.push_back(suggestion);
+  }
+  return surface;
+}
+
+// The page's mean frame time orbiting (its moving subset) and still.
+std::pair<double, double> MeasureFrames(testing::HeadlessBrowser& page_browser) {
+  const double orbiting =
+      page_browser.Evaluate("window.flysfmView.measureFrames(40, false)").get<double>();
+  const double still =
+      page_browser.Evaluate("window.flysfmView.measureFrames(5, true)").get<double>();
+  return {orbiting, still};
+}
 
 struct Window {
   double ms = 0;
@@ -218,12 +282,9 @@ int main(int argc, char** argv) {
                     page_points);
       } else {
         // Orbiting (the page draws its moving subset), then still (every point).
-        const double frame_ms =
-            page_browser.Evaluate("window.flysfmView.measureFrames(40, false)").get<double>();
+        const auto [frame_ms, still_ms] = MeasureFrames(page_browser);
         const int moving_points =
             page_browser.Evaluate("window.flysfmView.movingPoints").get<int>();
-        const double still_ms =
-            page_browser.Evaluate("window.flysfmView.measureFrames(5, true)").get<double>();
         std::printf("page: %d points loaded and drawn in %.1f s, in headless chromium with "
                     "software WebGL (SwiftShader, no GPU): orbiting %.1f ms per frame "
                     "(%.0f frames/s, the page's moving subset of %d points); still, every "
@@ -234,8 +295,35 @@ int main(int argc, char** argv) {
                      {"load_s", load_s},
                      {"frame_ms_orbiting", frame_ms},
                      {"moving_points", moving_points},
-                     {"frame_ms_still", still_ms},
-                     {"errors", page_browser.errors().size()}};
+                     {"frame_ms_still", still_ms}};
+        // The coverage surface and its ghost cameras over the same points.
+        ViewUpdate with_surface;
+        with_surface.surface = LargestSurface();
+        with_surface.num_points = page_points;
+        const std::size_t faces = with_surface.surface->classes.size();
+        const auto surface_start = Clock::now();
+        big.Publish(with_surface);
+        const bool drawn = page_browser.WaitFor(
+            "window.flysfmView.surfaceFaces === " + std::to_string(faces), 120);
+        const double surface_s =
+            std::chrono::duration<double>(Clock::now() - surface_start).count();
+        if (!drawn) {
+          std::printf("page check failed: the page did not show the surface's %zu faces in "
+                      "120 s\n", faces);
+        } else {
+          const auto [surface_frame_ms, surface_still_ms] = MeasureFrames(page_browser);
+          std::printf("page with the surface (%zu faces, %zu suggested viewpoints) shown in "
+                      "%.1f s: orbiting %.1f ms per frame (%.0f frames/s); still %.1f ms per "
+                      "frame\n",
+                      faces, with_surface.surface->suggestions.size(), surface_s,
+                      surface_frame_ms, 1000 / surface_frame_ms, surface_still_ms);
+          page_json["surface"] = {{"faces", faces},
+                                  {"suggestions", with_surface.surface->suggestions.size()},
+                                  {"shown_s", surface_s},
+                                  {"frame_ms_orbiting", surface_frame_ms},
+                                  {"frame_ms_still", surface_still_ms}};
+        }
+        page_json["errors"] = page_browser.errors().size();
       }
     }
   }

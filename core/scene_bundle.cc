@@ -151,10 +151,19 @@ SceneBundleResult Adjust(const std::unordered_map<image_t, double>& weights,
       image.linear_velocity = problem.images[i].linear_velocity;
     }
   }
+  // Intrinsics held constant come back as they went: only a written change
+  // is one (what follows a change, the quality measures, the view's
+  // intrinsics, costs the model's size).
+  bool cameras_changed = false;
   for (const auto& [camera_id, index] : camera_index) {
-    reconstruction->camera(camera_id) = problem.cameras[index];
+    Camera& camera = reconstruction->camera(camera_id);
+    const Camera& solved = problem.cameras[index];
+    if (camera.params != solved.params || camera.readout_time != solved.readout_time) {
+      camera = solved;
+      cameras_changed = true;
+    }
   }
-  if (!camera_index.empty()) reconstruction->MarkCamerasChanged();
+  if (cameras_changed) reconstruction->MarkCamerasChanged();
   result.points = std::move(point_ids);
   return result;
 }

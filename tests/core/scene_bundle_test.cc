@@ -281,10 +281,26 @@ TEST_CASE("A local bundle reports what it moved to the model's change tracking")
         std::set<point3D_t>(result.points.begin(), result.points.end()));
   CHECK(changes.added_points.empty());
   CHECK(changes.removed_points.empty());
-  CHECK(changes.changed_cameras);
+  // The intrinsics were held constant (the adjuster's default): no change.
+  CHECK_FALSE(changes.changed_cameras);
   for (int i = 0; i < static_cast<int>(local.scene.cams_from_world.size()); ++i) {
     CHECK(changes.changed_images.count(SceneImageId(i)) == (IsRefined(tree, i) ? 1u : 0u));
   }
+}
+
+TEST_CASE("A local bundle that refines the focal length reports the camera changed") {
+  LocalScene local = MakeLocalScene();
+  const Tree tree = BuildTree(local, {});
+  Reconstruction& reconstruction = local.model.reconstruction;
+  // A focal length 1 % off, for the bundle to correct.
+  for (auto& [camera_id, camera] : reconstruction.cameras()) {
+    reconstruction.camera(camera_id).SetFocalLength(1.01 * camera.MeanFocalLength());
+  }
+  reconstruction.TakeChanges();
+  BundleAdjuster::Options options;
+  options.refine_focal_length = true;
+  AdjustLocalBundle(testing::SceneImageWeights(tree), options, 0, &reconstruction);
+  CHECK(reconstruction.TakeChanges().changed_cameras);
 }
 
 // 30 frames of a video, 1/30 s apart, on an arc turning at a steady 1 rad/s
