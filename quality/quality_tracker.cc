@@ -93,23 +93,37 @@ void QualityTracker::Recompute(const Reconstruction& reconstruction,
                                const Reconstruction::Changes& changes) {
   std::set<point3D_t> points;  // to recompute
   std::set<image_t> images;    // to recompute
-  const auto touch_track_images = [&](point3D_t point3D_id) {
+  // Images that see a point that moved or whose track changed: recomputed
+  // when their observations changed (a track gained or lost them). A point
+  // a local BA only moved, the image's pose held, turns that image's ray by
+  // about the noise over the depth: its measures stay (docs/quality.md).
+  std::set<image_t> seeing_changed;
+  const auto track_images = [&](point3D_t point3D_id, std::set<image_t>* into) {
     const auto cached = points_.find(point3D_id);
-    if (cached != points_.end()) images.insert(cached->second.images.begin(), cached->second.images.end());
+    if (cached != points_.end()) into->insert(cached->second.images.begin(), cached->second.images.end());
     if (reconstruction.ExistsPoint3D(point3D_id)) {
       for (const TrackElement& element : reconstruction.point3D(point3D_id).track) {
-        images.insert(element.image_id);
+        into->insert(element.image_id);
       }
     }
   };
   for (const point3D_t id : changes.removed_points) {
-    touch_track_images(id);
+    track_images(id, &images);
     ErasePoint(id);
   }
-  for (const auto* ids : {&changes.added_points, &changes.changed_points}) {
-    for (const point3D_t id : *ids) {
-      touch_track_images(id);
-      if (reconstruction.ExistsPoint3D(id)) points.insert(id);
+  for (const point3D_t id : changes.added_points) {
+    track_images(id, &images);
+    if (reconstruction.ExistsPoint3D(id)) points.insert(id);
+  }
+  for (const point3D_t id : changes.changed_points) {
+    track_images(id, &seeing_changed);
+    if (reconstruction.ExistsPoint3D(id)) points.insert(id);
+  }
+  for (const image_t id : seeing_changed) {
+    const auto cached = images_.find(id);
+    if (cached == images_.end() || !reconstruction.ExistsImage(id) ||
+        cached->second.inliers != reconstruction.image(id).num_points3D) {
+      images.insert(id);
     }
   }
   for (const image_t id : changes.changed_images) {
