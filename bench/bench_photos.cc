@@ -53,6 +53,7 @@
 #include "io/evaluation/evaluation.h"
 #include "io/formats/trajectory.h"
 #include "io/sources/image_source.h"
+#include "quality/quality_tracker.h"
 #include "tests/testing/datasets.h"
 
 namespace flysfm {
@@ -329,6 +330,100 @@ nlohmann::json FeedbackFigures(const fs::path& out, const std::vector<Frame>& fr
           {"added_median_growth", bench::Growth(added, 50, 50)}};
 }
 
+// The distance along the ray from `origin` to the nearest facet it meets;
+// nullopt when it meets none.
+std::optional<double> NearestFacet(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction,
+                                   const std::vector<BuildingFacet>& facets) {
+  std::optional<double> nearest;
+  for (const BuildingFacet& facet : facets) {
+    const Eigen::Vector3d normal = facet.axis_u.cross(facet.axis_v);
+    const double denominator = normal.dot(direction);
+    if (std::abs(denominator) < 1e-12) continue;
+    const double t = normal.dot(facet.origin - origin) / denominator;
+    if (t <= 0 || (nearest && t >= *nearest)) continue;
+    const Eigen::Vector3d hit = origin + t * direction - facet.origin;
+    // The scene's facets have orthogonal axes.
+    const double a = hit.dot(facet.axis_u) / facet.axis_u.squaredNorm();
+    const double b = hit.dot(facet.axis_v) / facet.axis_v.squaredNorm();
+    if (a >= 0 && a <= 1 && b >= 0 && b <= 1) nearest = t;
+  }
+  return nearest;
+}
+
+// Do the uncertainties rank points and cameras by their true error (--out)?
+// The model aligned to the truth by the Sim3 of the camera centres; a
+// point's true error is how far it lies from the building along the rays
+// from the true centres of the images observing it (their mean: the
+// direction in which a point's uncertainty is largest, and free of the
+// keypoints' own error, which a point cast from them would carry into the
+// truth); a camera's, its aligned centre's distance from the true one.
+// Spearman's rank correlation of each with its sigma, for one sigma source.
+nlohmann::json Ranking(const Reconstruction& model, const RenderedSession& rendered,
+                       const Sim3d& truth_from_model, QualityTracker::Options::Sigma source) {
+  QualityTracker::Options options;
+  options.sigma_source = source;
+  QualityTracker tracker(options);
+  tracker.Rebuild(model);
+  const std::vector<BuildingFacet> facets = BuildingFacets();
+  std::vector<double> point_sigmas, point_errors;
+  for (const auto& [id, point] : model.points3D()) {
+    const std::optional<PointQuality> quality = tracker.Point(id);
+    if (!quality || !quality->sigma) continue;
+    const Eigen::Vector3d aligned = truth_from_model * point.xyz;
+    double error = 0;
+    int hits = 0;
+    for (const TrackElement& element : point.track) {
+      const Eigen::Vector3d& centre = rendered.true_centres.at(model.image(element.image_id).name);
+      const std::optional<double> along =
+          NearestFacet(centre, (aligned - centre).normalized(), facets);
+      if (!along) continue;
+      error += std::abs((aligned - centre).norm() - *along);
+      ++hits;
+    }
+    if (hits == 0) continue;
+    point_sigmas.push_back(*quality->sigma);
+    point_errors.push_back(error / hits);
+  }
+  std::vector<double> centre_sigmas, centre_errors;
+  for (const auto& [image_id, quality] : tracker.Images()) {
+    if (!quality.center_sigma) continue;
+    const Image& image = model.image(image_id);
+    centre_sigmas.push_back(*quality.center_sigma);
+    centre_errors.push_back((truth_from_model * ProjectionCenter(*image.cam_from_world) -
+                             rendered.true_centres.at(image.name))
+                                .norm());
+  }
+  const double point_rho = SpearmanCorrelation(point_sigmas, point_errors).value_or(0);
+  const double centre_rho = SpearmanCorrelation(centre_sigmas, centre_errors).value_or(0);
+  std::printf("uncertainty ranking, sigma source %s: %zu points, Spearman(sigma, true error) "
+              "%.3f (median true error %.2f mm); %zu cameras, Spearman(centre sigma, centre "
+              "error) %.3f (median %.2f mm)\n",
+              SigmaSourceName(source), point_sigmas.size(), point_rho,
+              1000 * Median(point_errors), centre_sigmas.size(), centre_rho,
+              1000 * Median(centre_errors));
+  return {{"points", point_sigmas.size()},
+          {"point_spearman", point_rho},
+          {"point_median_error_m", Median(point_errors)},
+          {"cameras", centre_sigmas.size()},
+          {"camera_spearman", centre_rho},
+          {"camera_median_error_m", Median(centre_errors)}};
+}
+
+// The ranking with each sigma source.
+nlohmann::json RankingFigures(const Reconstruction& model, const RenderedSession& rendered) {
+  const std::optional<PositionErrors> alignment =
+      CompareCentersByName(model, rendered.true_centres);
+  if (!alignment) return {{"checked", false}};
+  nlohmann::json json = {{"checked", true}};
+  for (const auto source :
+       {QualityTracker::Options::Sigma::kFixed, QualityTracker::Options::Sigma::kModelRms,
+        QualityTracker::Options::Sigma::kAPosteriori}) {
+    json[SigmaSourceName(source)] =
+        Ranking(model, rendered, alignment->reference_from_estimate, source);
+  }
+  return json;
+}
+
 // --render-only: the photos stay in `dir` for `flysfm batch` (scripts/
 // bench_compare.sh runs two revisions on them), with their exact poses as a
 // TUM trajectory (groundtruth.txt, camera-to-world; the timestamp of photo i
@@ -403,7 +498,10 @@ int Main(const Flags& flags) {
   std::printf("memory: RSS %.0f MB before the engine; malloc policy %s\n", rss_before_mb,
               malloc_policy ? "applied" : "refused: glibc's defaults");
   json.update(AccuracyFigures(flags, rendered, model, session));
-  if (!flags.out.empty()) json["feedback"] = FeedbackFigures(flags.out, rendered.frames);
+  if (!flags.out.empty()) {
+    json["feedback"] = FeedbackFigures(flags.out, rendered.frames);
+    json["ranking"] = RankingFigures(model, rendered);
+  }
   json.update({{"bench", "photos"},
                {"photos", flags.num_photos},
                {"width", rendered.camera.width},

@@ -191,10 +191,13 @@ ImageQuality MeasureImage(const Reconstruction& reconstruction, image_t image_id
   ImageQuality quality;
   std::vector<Eigen::Vector2d> keypoints;
   std::vector<Eigen::Vector3d> points;
-  for (const Point2D& point2D : image.points2D) {
+  for (std::size_t idx = 0; idx < image.points2D.size(); ++idx) {
+    const Point2D& point2D = image.points2D[idx];
     if (!point2D.HasPoint3D()) continue;
     keypoints.push_back(point2D.xy);
     points.push_back(reconstruction.point3D(point2D.point3D_id).xyz);
+    const double error = reconstruction.ReprojectionError(image_id, point2D_t(idx), points.back());
+    quality.squared_error_sum += error * error;
   }
   quality.inliers = int(points.size());
   const double area = double(camera.width) * double(camera.height);

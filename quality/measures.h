@@ -83,6 +83,7 @@ struct PointQuality {
 struct ImageQuality {
   int inliers = 0;      // observations of 3D points (2D-3D inliers)
   double spread = 0;    // convex hull of their keypoints / image area, in [0, 1]
+  double squared_error_sum = 0;  // px^2, over those observations
   // Largest standard deviation of the projection centre, model units;
   // nullopt when undefined.
   std::optional<double> center_sigma;

@@ -14,6 +14,9 @@ void QualityTracker::Options::Check() const {
   if (!(sigma_px > 0 && std::isfinite(sigma_px))) {
     throw std::invalid_argument("quality.sigma_px must be positive and finite");
   }
+  if (!(prior_redundancy > 0 && std::isfinite(prior_redundancy))) {
+    throw std::invalid_argument("quality.prior_redundancy must be positive and finite");
+  }
   if (min_views < 2) throw std::invalid_argument("quality.min_views must be >= 2");
   if (!(min_angle_deg >= 0 && min_angle_deg < 180)) {
     throw std::invalid_argument("quality.min_angle_deg must be in [0, 180)");
@@ -147,14 +150,36 @@ void QualityTracker::Recompute(const Reconstruction& reconstruction,
 }
 
 double QualityTracker::SigmaPx() const {
-  if (options_.sigma_source == Options::Sigma::kModelRms && num_observations_ > 0) {
-    return std::sqrt(std::max(0.0, squared_error_sum_) / double(num_observations_));
+  if (num_observations_ == 0) return options_.sigma_px;
+  const double squared_sum = std::max(0.0, squared_error_sum_);
+  switch (options_.sigma_source) {
+    case Options::Sigma::kFixed: return options_.sigma_px;
+    case Options::Sigma::kModelRms: return std::sqrt(squared_sum / double(num_observations_));
+    // Per coordinate: an observation's squared error sums two.
+    case Options::Sigma::kAPosteriori:
+      return std::sqrt(squared_sum / (2.0 * double(num_observations_)));
   }
   return options_.sigma_px;
 }
 
+double QualityTracker::NoiseOf(double squared_error_sum, double redundancy) const {
+  const double model = SigmaPx();
+  if (options_.sigma_source != Options::Sigma::kAPosteriori) return model;
+  const double prior = options_.prior_redundancy;
+  return std::sqrt((std::max(0.0, squared_error_sum) + prior * model * model) /
+                   (std::max(0.0, redundancy) + prior));
+}
+
+double QualityTracker::PointNoise(const PointQuality& quality) const {
+  return NoiseOf(quality.squared_error_sum, 2.0 * quality.views - 3.0);
+}
+
+double QualityTracker::ImageNoise(const ImageQuality& quality) const {
+  return NoiseOf(quality.squared_error_sum, 2.0 * quality.inliers - 6.0);
+}
+
 PointQuality QualityTracker::Scaled(PointQuality quality) const {
-  if (quality.sigma) *quality.sigma *= SigmaPx();
+  if (quality.sigma) *quality.sigma *= PointNoise(quality);
   return quality;
 }
 
@@ -168,7 +193,7 @@ std::optional<ImageQuality> QualityTracker::Image(image_t image_id) const {
   const auto cached = images_.find(image_id);
   if (cached == images_.end()) return std::nullopt;
   ImageQuality quality = cached->second;
-  if (quality.center_sigma) *quality.center_sigma *= SigmaPx();
+  if (quality.center_sigma) *quality.center_sigma *= ImageNoise(quality);
   return quality;
 }
 
@@ -200,7 +225,7 @@ QualityTracker::Summary QualityTracker::Summarize() const {
     angles.push_back(point.max_angle_deg);
     errors.push_back(point.error_px);
     if (point.sigma) {
-      sigmas.push_back(*point.sigma * summary.sigma_px);
+      sigmas.push_back(*point.sigma * PointNoise(point));
     } else {
       ++summary.undefined_point_sigmas;
     }
@@ -219,7 +244,7 @@ QualityTracker::Summary QualityTracker::Summarize() const {
     inliers.push_back(image.inliers);
     spreads.push_back(image.spread);
     if (image.center_sigma) {
-      center_sigmas.push_back(*image.center_sigma * summary.sigma_px);
+      center_sigmas.push_back(*image.center_sigma * ImageNoise(image));
     } else {
       ++summary.undefined_center_sigmas;
     }
@@ -228,6 +253,24 @@ QualityTracker::Summary QualityTracker::Summarize() const {
   summary.median_spread = Median(spreads);
   summary.median_center_sigma = Median(center_sigmas);
   return summary;
+}
+
+const char* SigmaSourceName(QualityTracker::Options::Sigma source) {
+  switch (source) {
+    case QualityTracker::Options::Sigma::kFixed: return "fixed";
+    case QualityTracker::Options::Sigma::kModelRms: return "model-rms";
+    case QualityTracker::Options::Sigma::kAPosteriori: return "a-posteriori";
+  }
+  return "?";
+}
+
+std::optional<QualityTracker::Options::Sigma> SigmaSourceFromName(const std::string& name) {
+  for (const auto source :
+       {QualityTracker::Options::Sigma::kFixed, QualityTracker::Options::Sigma::kModelRms,
+        QualityTracker::Options::Sigma::kAPosteriori}) {
+    if (name == SigmaSourceName(source)) return source;
+  }
+  return std::nullopt;
 }
 
 }  // namespace flysfm

@@ -119,14 +119,7 @@ std::string Format(MergedSourceOptions::Order value) {
   }
   return "?";
 }
-std::string Format(QualityTracker::Options::Sigma value) {
-  using Sigma = QualityTracker::Options::Sigma;
-  switch (value) {
-    case Sigma::kFixed: return "fixed";
-    case Sigma::kModelRms: return "model-rms";
-  }
-  return "?";
-}
+std::string Format(QualityTracker::Options::Sigma value) { return SigmaSourceName(value); }
 std::string Format(CameraModelId value) { return CameraModelName(value); }
 std::string Format(const std::set<CamfiFault>& faults) {
   std::vector<std::string> names;
@@ -577,9 +570,11 @@ void List(const std::string& prefix, const MergedSourceOptions& o, Out* out) {
 }
 
 void List(const std::string& prefix, const QualityTracker::Options& o, Out* out) {
-  [[maybe_unused]] const auto& [sigma_source, sigma_px, min_views, min_angle_deg] = o;
-  OPTION(sigma_source, "Pixel noise of the uncertainties: fixed (sigma_px) or model-rms (the model's RMS reprojection error)");
-  OPTION(sigma_px, "Pixel noise, standard deviation per coordinate, when fixed");
+  [[maybe_unused]] const auto& [sigma_source, sigma_px, prior_redundancy, min_views,
+                                min_angle_deg] = o;
+  OPTION(sigma_source, "Pixel noise of the uncertainties: fixed (sigma_px), model-rms (the model's RMS reprojection error) or a-posteriori (each point's and image's own residuals, the model's noise as a prior)");
+  OPTION(sigma_px, "Pixel noise, standard deviation per coordinate, when fixed (and while the model has no residual)");
+  OPTION(prior_redundancy, "a-posteriori: the model's noise counts as this many of an element's own residuals");
   OPTION(min_views, "A well-covered point is seen by at least this many images");
   OPTION(min_angle_deg, "... under a largest triangulation angle of at least this many degrees");
 }

@@ -25,8 +25,13 @@ QualityTracker::Options QualityOptionsOf(const nlohmann::json& summary) {
   if (quality.contains("sigma_px") && quality["sigma_px"].is_number()) {
     options.sigma_px = quality["sigma_px"].get<double>();
   }
-  if (quality.value("sigma_source", "") == "model-rms") {
-    options.sigma_source = QualityTracker::Options::Sigma::kModelRms;
+  if (quality.contains("sigma_source") && quality["sigma_source"].is_string()) {
+    if (const auto source = SigmaSourceFromName(quality["sigma_source"].get<std::string>())) {
+      options.sigma_source = *source;
+    }
+  }
+  if (quality.contains("prior_redundancy") && quality["prior_redundancy"].is_number()) {
+    options.prior_redundancy = quality["prior_redundancy"].get<double>();
   }
   if (quality.contains("min_views") && quality["min_views"].is_number_integer()) {
     options.min_views = quality["min_views"].get<int>();

@@ -89,8 +89,8 @@ nlohmann::json ToJson(const QualityTracker& quality, const Reconstruction& recon
   }
   return {
       {"sigma_px", summary.sigma_px},
-      {"sigma_source",
-       options.sigma_source == QualityTracker::Options::Sigma::kFixed ? "fixed" : "model-rms"},
+      {"sigma_source", SigmaSourceName(options.sigma_source)},
+      {"prior_redundancy", options.prior_redundancy},
       {"min_views", options.min_views},
       {"min_angle_deg", options.min_angle_deg},
       {"points", summary.points},

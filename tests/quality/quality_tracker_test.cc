@@ -26,7 +26,16 @@ bool SameSigma(const std::optional<double>& a, const std::optional<double>& b,
   return *a == Approx(*b).epsilon(relative);
 }
 
-// Every measure of `tracker` equals a measurement of the model from scratch;
+// A fixed pixel noise: the incremental cases compare with MeasurePoint and
+// MeasureImage at that noise.
+QualityTracker::Options Fixed() {
+  QualityTracker::Options options;
+  options.sigma_source = QualityTracker::Options::Sigma::kFixed;
+  return options;
+}
+
+// Every measure of `tracker` (a fixed or model-wide noise) equals a
+// measurement of the model from scratch;
 // the images' centre sigmas within `center_relative` (relative).
 void CheckCurrent(const QualityTracker& tracker, const Reconstruction& r,
                   double center_relative = 1e-9) {
@@ -54,7 +63,7 @@ void CheckCurrent(const QualityTracker& tracker, const Reconstruction& r,
 
 TEST_CASE("A rebuilt tracker holds every point's and image's measures") {
   const Reconstruction r = Scene();
-  QualityTracker tracker;
+  QualityTracker tracker(Fixed());
   tracker.Rebuild(r);
   CheckCurrent(tracker, r);
   const QualityTracker::Summary summary = tracker.Summarize();
@@ -72,7 +81,7 @@ TEST_CASE("A rebuilt tracker holds every point's and image's measures") {
 
 TEST_CASE("An update recomputes only what the change touched, and agrees with a rebuild") {
   Reconstruction r = Scene();
-  QualityTracker tracker;
+  QualityTracker tracker(Fixed());
   r.TakeChanges();
   tracker.Rebuild(r);
   std::vector<point3D_t> ids;
@@ -160,7 +169,7 @@ TEST_CASE("With the model's RMS as the pixel noise, every sigma scales with it")
   QualityTracker::Options options;
   options.sigma_source = QualityTracker::Options::Sigma::kModelRms;
   QualityTracker by_rms(options);
-  QualityTracker by_pixel;
+  QualityTracker by_pixel(Fixed());
   by_rms.Rebuild(r);
   by_pixel.Rebuild(r);
   double squared = 0;
@@ -182,6 +191,74 @@ TEST_CASE("With the model's RMS as the pixel noise, every sigma scales with it")
   CheckCurrent(by_rms, r);
 }
 
+TEST_CASE("A posteriori, each point and image is judged by its own residuals, the model's "
+          "noise as a prior") {
+  // Keypoints with 0.5 px of noise per coordinate about exact points.
+  const double noise_px = 0.5;
+  const Reconstruction r = Scene(noise_px);
+  QualityTracker::Options options;
+  options.sigma_source = QualityTracker::Options::Sigma::kAPosteriori;
+  QualityTracker tracker(options);
+  tracker.Rebuild(r);
+  QualityTracker by_pixel(Fixed());
+  by_pixel.Rebuild(r);
+
+  double squared = 0;
+  std::size_t count = 0;
+  std::map<image_t, std::pair<double, int>> per_image;  // squared sum, points
+  std::map<point3D_t, double> per_point;
+  for (const auto& [id, point] : r.points3D()) {
+    for (const TrackElement& element : point.track) {
+      const double e2 = std::pow(r.ReprojectionError(element.image_id, element.point2D_idx,
+                                                     point.xyz), 2);
+      squared += e2;
+      ++count;
+      per_point[id] += e2;
+      per_image[element.image_id].first += e2;
+      ++per_image[element.image_id].second;
+    }
+  }
+  // The model's noise per coordinate: the keypoints' own, to the statistical
+  // error of about a thousand residuals (a few per cent).
+  const double model_sigma = std::sqrt(squared / (2.0 * double(count)));
+  CHECK(tracker.SigmaPx() == Approx(model_sigma).epsilon(1e-12));
+  CHECK(tracker.SigmaPx() == Approx(noise_px).epsilon(0.1));
+
+  const double prior = options.prior_redundancy;
+  for (const auto& [id, point] : r.points3D()) {
+    const double redundancy = 2.0 * double(point.track.size()) - 3.0;
+    const double own = std::sqrt((per_point[id] + prior * model_sigma * model_sigma) /
+                                 (redundancy + prior));
+    CHECK(*tracker.Point(id)->sigma == Approx(own * *by_pixel.Point(id)->sigma).epsilon(1e-9));
+  }
+  for (const auto& [image_id, sums] : per_image) {
+    const double redundancy = 2.0 * sums.second - 6.0;
+    const double own = std::sqrt((sums.first + prior * model_sigma * model_sigma) /
+                                 (redundancy + prior));
+    CHECK(*tracker.Image(image_id)->center_sigma ==
+          Approx(own * *by_pixel.Image(image_id)->center_sigma).epsilon(1e-9));
+  }
+
+  // A model without residuals: every point is as certain as its geometry
+  // with no noise at all, and the prior keeps that from being a division by
+  // zero.
+  const Reconstruction exact = Scene(0.0);
+  QualityTracker exact_tracker(options);
+  exact_tracker.Rebuild(exact);
+  for (const auto& [id, point] : exact.points3D()) {
+    if (const auto sigma = exact_tracker.Point(id)->sigma) CHECK(*sigma == Approx(0).margin(1e-9));
+  }
+}
+
+TEST_CASE("Sigma sources are named as summary.json names them, and read back") {
+  using Sigma = QualityTracker::Options::Sigma;
+  for (const Sigma source : {Sigma::kFixed, Sigma::kModelRms, Sigma::kAPosteriori}) {
+    CHECK(SigmaSourceFromName(SigmaSourceName(source)) == source);
+  }
+  CHECK(std::string(SigmaSourceName(Sigma::kAPosteriori)) == "a-posteriori");
+  CHECK_FALSE(SigmaSourceFromName("magic"));
+}
+
 TEST_CASE("Bad quality options are refused, naming the option") {
   QualityTracker::Options options;
   options.sigma_px = 0;
@@ -189,6 +266,9 @@ TEST_CASE("Bad quality options are refused, naming the option") {
   options = {};
   options.min_views = 1;
   CHECK_THROWS_WITH(QualityTracker(options), Catch::Contains("min_views"));
+  options = {};
+  options.prior_redundancy = 0;
+  CHECK_THROWS_WITH(QualityTracker(options), Catch::Contains("prior_redundancy"));
   options = {};
   options.min_angle_deg = -1;
   CHECK_THROWS_WITH(QualityTracker(options), Catch::Contains("min_angle_deg"));

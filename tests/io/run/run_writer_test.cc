@@ -172,7 +172,8 @@ TEST_CASE("With a quality tracker: ms.quality in the log, the measures in summar
   const nlohmann::json json = nlohmann::json::parse(summary_file)["quality"];
   CHECK(json["points"] == model.NumPoints3D());
   CHECK(json["images"] == model.NumRegisteredImages());
-  CHECK(json["sigma_px"] == 1.0);
+  CHECK(json["sigma_px"] == Approx(quality.SigmaPx()));
+  CHECK(json["sigma_source"] == SigmaSourceName(quality.options().sigma_source));
   CHECK(json["min_views"] == 3);
   REQUIRE(json["per_image"].size() == model.NumRegisteredImages());
   const nlohmann::json& first_image = json["per_image"][0];
