@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <set>
 #include <stdexcept>
 
@@ -16,6 +17,9 @@ void QualityTracker::Options::Check() const {
   }
   if (!(prior_redundancy > 0 && std::isfinite(prior_redundancy))) {
     throw std::invalid_argument("quality.prior_redundancy must be positive and finite");
+  }
+  if (!(refresh_budget_ms >= 0)) {
+    throw std::invalid_argument("quality.refresh_budget_ms must not be negative");
   }
   if (min_views < 2) throw std::invalid_argument("quality.min_views must be >= 2");
   if (!(min_angle_deg >= 0 && min_angle_deg < 180)) {
@@ -77,12 +81,15 @@ double QualityTracker::Update(const Reconstruction& reconstruction,
     // change, which cost the model's size already).
     points_.clear();
     images_.clear();
+    dirty_points_.clear();
+    dirty_images_.clear();
     squared_error_sum_ = 0;
     num_observations_ = 0;
     Recompute(reconstruction, Everything(reconstruction));
   } else {
     Recompute(reconstruction, changes);
   }
+  Refresh(reconstruction, start, options_.refresh_budget_ms);
   counters_.recomputed_points += counters_.last_recomputed_points;
   counters_.recomputed_images += counters_.last_recomputed_images;
   ++counters_.updates;
@@ -92,11 +99,53 @@ double QualityTracker::Update(const Reconstruction& reconstruction,
   return ms;
 }
 
+double QualityTracker::Flush(const Reconstruction& reconstruction) {
+  const auto start = std::chrono::steady_clock::now();
+  counters_.last_recomputed_points = 0;
+  counters_.last_recomputed_images = 0;
+  last_recomputed_points_.clear();
+  Refresh(reconstruction, start, std::numeric_limits<double>::infinity());
+  counters_.recomputed_points += counters_.last_recomputed_points;
+  counters_.recomputed_images += counters_.last_recomputed_images;
+  const double ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  counters_.update_ms += ms;
+  return ms;
+}
+
+void QualityTracker::Refresh(const Reconstruction& reconstruction,
+                             std::chrono::steady_clock::time_point start, double budget_ms) {
+  const auto spent_ms = [&] {
+    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+        .count();
+  };
+  // Oldest first, images before points (an image's measure is one number a
+  // photographer reads; its points are many); the clock read every few
+  // elements, each costing microseconds.
+  for (int n = 0; !dirty_images_.empty(); ++n) {
+    if (n % 8 == 0 && spent_ms() >= budget_ms) return;
+    const image_t id = dirty_images_.Pop();
+    if (reconstruction.ExistsImage(id) && reconstruction.image(id).IsRegistered()) {
+      images_[id] = MeasureImage(reconstruction, id, 1.0);
+      ++counters_.last_recomputed_images;
+    } else {
+      images_.erase(id);
+    }
+  }
+  for (int n = 0; !dirty_points_.empty(); ++n) {
+    if (n % 64 == 0 && spent_ms() >= budget_ms) return;
+    const point3D_t id = dirty_points_.Pop();
+    if (reconstruction.ExistsPoint3D(id)) RecomputePoint(reconstruction, id);
+  }
+}
+
 void QualityTracker::Recompute(const Reconstruction& reconstruction,
                                const Reconstruction::Changes& changes) {
-  std::set<point3D_t> points;  // to recompute
-  std::set<image_t> images;    // to recompute
-  // Images that see a point that moved or whose track changed: recomputed
+  // Measured now: what is new to the measures, whatever it costs (bounded
+  // by what the image brought).
+  std::set<point3D_t> points;
+  std::set<image_t> images;
+  // Images that see a point that moved or whose track changed: measured now
   // when their observations changed (a track gained or lost them). A point
   // a local BA only moved, the image's pose held, turns that image's ray by
   // about the noise over the depth: its measures stay (docs/quality.md).
@@ -110,9 +159,18 @@ void QualityTracker::Recompute(const Reconstruction& reconstruction,
       }
     }
   };
+  // A point whose observations are those its measure was taken with, which
+  // only moved: measured again within the refresh budget.
+  const auto only_moved = [&](point3D_t point3D_id) {
+    const auto cached = points_.find(point3D_id);
+    return cached != points_.end() &&
+           std::size_t(cached->second.quality.views) ==
+               reconstruction.point3D(point3D_id).track.size();
+  };
   for (const point3D_t id : changes.removed_points) {
     track_images(id, &images);
     ErasePoint(id);
+    dirty_points_.Erase(id);
   }
   for (const point3D_t id : changes.added_points) {
     track_images(id, &images);
@@ -120,7 +178,12 @@ void QualityTracker::Recompute(const Reconstruction& reconstruction,
   }
   for (const point3D_t id : changes.changed_points) {
     track_images(id, &seeing_changed);
-    if (reconstruction.ExistsPoint3D(id)) points.insert(id);
+    if (!reconstruction.ExistsPoint3D(id)) continue;
+    if (only_moved(id)) {
+      dirty_points_.Push(id);
+    } else {
+      points.insert(id);
+    }
   }
   for (const image_t id : seeing_changed) {
     const auto cached = images_.find(id);
@@ -130,16 +193,32 @@ void QualityTracker::Recompute(const Reconstruction& reconstruction,
     }
   }
   for (const image_t id : changes.changed_images) {
-    images.insert(id);
+    // Registered now or deregistered: now; a pose a bundle moved: later.
+    const bool moved = images_.count(id) && reconstruction.ExistsImage(id) &&
+                       reconstruction.image(id).IsRegistered();
+    if (moved) {
+      dirty_images_.Push(id);
+    } else {
+      images.insert(id);
+    }
     if (!reconstruction.ExistsImage(id)) continue;
     // Its points see it from elsewhere now; their positions did not move,
     // so the other images observing them keep their measures.
     for (const Point2D& point2D : reconstruction.image(id).points2D) {
-      if (point2D.HasPoint3D()) points.insert(point2D.point3D_id);
+      if (!point2D.HasPoint3D()) continue;
+      if (only_moved(point2D.point3D_id)) {
+        dirty_points_.Push(point2D.point3D_id);
+      } else {
+        points.insert(point2D.point3D_id);
+      }
     }
   }
-  for (const point3D_t id : points) RecomputePoint(reconstruction, id);
+  for (const point3D_t id : points) {
+    dirty_points_.Erase(id);
+    RecomputePoint(reconstruction, id);
+  }
   for (const image_t id : images) {
+    dirty_images_.Erase(id);
     if (!reconstruction.ExistsImage(id) || !reconstruction.image(id).IsRegistered()) {
       images_.erase(id);
       continue;
@@ -217,6 +296,8 @@ QualityTracker::Summary QualityTracker::Summarize() const {
   Summary summary = counters_;
   summary.points = points_.size();
   summary.images = images_.size();
+  summary.deferred_points = dirty_points_.size();
+  summary.deferred_images = dirty_images_.size();
   summary.sigma_px = SigmaPx();
   std::vector<double> views, angles, errors, sigmas;
   for (const auto& [id, cached] : points_) {

@@ -5,9 +5,12 @@
 // an update recomputes the points and images a take of
 // Reconstruction::TakeChanges() touched and keeps the rest.
 
+#include <chrono>
+#include <deque>
 #include <optional>
 #include <string>
 #include <unordered_map>
+#include <unordered_set>
 #include <vector>
 
 #include "core/scene/reconstruction.h"
@@ -48,6 +51,15 @@ class QualityTracker {
     // about 8 times the lateral one, Z / B for a stereo pair.
     int min_views = 3;
     double min_angle_deg = 10.0;
+    // Per update, at most this long goes to measuring again what a bundle
+    // adjustment only moved (a point whose observations are those it was
+    // measured with, a registered image's pose); the rest waits, oldest
+    // first, for the next update or Flush. New points and images, and those
+    // whose observations came or went, are measured at once. A local BA in
+    // a long session with revisits moves thousands of points seen by a
+    // hundred images; a move is noise-sized, so a measure a few images late
+    // is off by noise, and the cost per image stays flat.
+    double refresh_budget_ms = 20.0;
 
     // Throws std::invalid_argument naming the bad option.
     void Check() const;
@@ -75,6 +87,9 @@ class QualityTracker {
     std::size_t recomputed_images = 0;
     std::size_t updates = 0;
     double update_ms = 0;                  // all updates' time
+    // Waiting to be measured again (moved by a bundle since their measure).
+    std::size_t deferred_points = 0;
+    std::size_t deferred_images = 0;
   };
 
   QualityTracker();
@@ -91,6 +106,10 @@ class QualityTracker {
   // or removed; written intrinsics recompute everything. Returns its time in
   // ms.
   double Update(const Reconstruction& reconstruction, const Reconstruction::Changes& changes);
+  // Measures again everything still waiting from the refresh budget, so that
+  // every measure is current (the end of a run, before its files). Returns
+  // its time in ms.
+  double Flush(const Reconstruction& reconstruction);
 
   // The pixel noise the sigmas are given for now: with kAPosteriori the
   // model's, each element's own scaled from it.
@@ -117,6 +136,9 @@ class QualityTracker {
     std::vector<image_t> images;  // its track's, for what its removal touches
   };
   void Recompute(const Reconstruction& reconstruction, const Reconstruction::Changes& changes);
+  // Measures waiting elements, oldest first, until `budget_ms` from `start`.
+  void Refresh(const Reconstruction& reconstruction, std::chrono::steady_clock::time_point start,
+               double budget_ms);
   void RecomputePoint(const Reconstruction& reconstruction, point3D_t point3D_id);
   void ErasePoint(point3D_t point3D_id);
   PointQuality Scaled(PointQuality quality) const;
@@ -135,6 +157,47 @@ class QualityTracker {
   std::size_t num_observations_ = 0;
   Summary counters_;
   std::vector<point3D_t> last_recomputed_points_;
+
+  // Ids in the order they were first queued, each at most once.
+  template <typename Id>
+  class Queue {
+   public:
+    void Push(Id id) {
+      if (!members_.insert(id).second) return;
+      order_.push_back(id);
+      // Erased ids leave stale entries behind: dropped when they outnumber
+      // the members, so the queue stays the size of what waits.
+      if (order_.size() > 2 * members_.size() + 1024) {
+        std::deque<Id> kept;
+        std::unordered_set<Id> seen;
+        for (const Id queued : order_) {
+          if (members_.count(queued) && seen.insert(queued).second) kept.push_back(queued);
+        }
+        order_ = std::move(kept);
+      }
+    }
+    void Erase(Id id) { members_.erase(id); }
+    // The oldest member; only when !empty().
+    Id Pop() {
+      while (!members_.count(order_.front())) order_.pop_front();
+      const Id id = order_.front();
+      order_.pop_front();
+      members_.erase(id);
+      return id;
+    }
+    bool empty() const { return members_.empty(); }
+    std::size_t size() const { return members_.size(); }
+    void clear() {
+      members_.clear();
+      order_.clear();
+    }
+
+   private:
+    std::unordered_set<Id> members_;
+    std::deque<Id> order_;  // may hold erased ids, skipped by Pop
+  };
+  Queue<point3D_t> dirty_points_;
+  Queue<image_t> dirty_images_;
 };
 
 // The sigma source's name in summary.json and docs/defaults.md ("fixed",

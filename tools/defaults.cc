@@ -571,9 +571,10 @@ void List(const std::string& prefix, const MergedSourceOptions& o, Out* out) {
 
 void List(const std::string& prefix, const QualityTracker::Options& o, Out* out) {
   [[maybe_unused]] const auto& [sigma_source, sigma_px, prior_redundancy, min_views,
-                                min_angle_deg] = o;
+                                min_angle_deg, refresh_budget_ms] = o;
   OPTION(sigma_source, "Pixel noise of the uncertainties: fixed (sigma_px), model-rms (the model's RMS reprojection error) or a-posteriori (each point's and image's own residuals, the model's noise as a prior)");
   OPTION(sigma_px, "Pixel noise, standard deviation per coordinate, when fixed (and while the model has no residual)");
+  OPTION(refresh_budget_ms, "Per update, at most this long measures again what a bundle only moved (the rest waits, oldest first), ms");
   OPTION(prior_redundancy, "a-posteriori: the model's noise counts as this many of an element's own residuals");
   OPTION(min_views, "A well-covered point is seen by at least this many images");
   OPTION(min_angle_deg, "... under a largest triangulation angle of at least this many degrees");

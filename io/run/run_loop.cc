@@ -84,8 +84,9 @@ class RunState {
   std::optional<double> UpdateCoverage(bool now);
   // Takes the model's changes once for both consumers: updates the quality
   // tracker and keeps them for the view's next update. The tracker's time,
-  // in ms (nullopt without a tracker).
-  std::optional<double> TakeChanges();
+  // in ms (nullopt without a tracker). `flush`: also what waits from the
+  // tracker's refresh budget (the end of the run).
+  std::optional<double> TakeChanges(bool flush = false);
   void PublishView();
   void Checkpoint(double call_ms, bool final);
   bool WriteOutputs(bool final);
@@ -194,20 +195,26 @@ void RunState::Report(const std::vector<ImageResult>& results, RunLoop::Origin o
   }
 }
 
-std::optional<double> RunState::TakeChanges() {
+std::optional<double> RunState::TakeChanges(bool flush) {
   if (!quality_ && !view_) return std::nullopt;
   const Reconstruction::Changes changes = engine_->TakeReconstructionChanges();
   if (!changes.empty()) model_changed_since_coverage_ = true;
   if (view_) view_changes_.Merge(changes);
   if (!quality_) return std::nullopt;
-  const double ms = quality_->Update(engine_->reconstruction(), changes);
-  if (view_) {
-    // Points whose measures moved without their positions (an observing
-    // image's pose moved): the page's colouring must follow.
+  // Points whose measures moved without their positions (an observing
+  // image's pose moved): the page's colouring must follow.
+  const auto remeasured_to_view = [&] {
+    if (!view_) return;
     Reconstruction::Changes remeasured;
     const std::vector<point3D_t>& ids = quality_->LastRecomputedPoints();
     remeasured.changed_points.insert(ids.begin(), ids.end());
     view_changes_.Merge(remeasured);
+  };
+  double ms = quality_->Update(engine_->reconstruction(), changes);
+  remeasured_to_view();
+  if (flush) {
+    ms += quality_->Flush(engine_->reconstruction());
+    remeasured_to_view();
   }
   return ms;
 }
@@ -453,7 +460,8 @@ void RunState::End() {
   summary_.finish_s = SecondsSince(finish_start);
   ShowEnd("writing the final model and checkpoint", "", SecondsSince(end_start), std::nullopt);
   Checkpoint(1000 * SecondsSince(end_start), /*final=*/true);
-  TakeChanges();
+  // The final files and view hold every measure current.
+  TakeChanges(/*flush=*/true);
   UpdateCoverage(/*now=*/true);
   PublishView();
   if (!WriteOutputs(/*final=*/true)) summary_.exit_code = 1;

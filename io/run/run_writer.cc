@@ -109,6 +109,8 @@ nlohmann::json ToJson(const QualityTracker& quality, const Reconstruction& recon
       {"updates", summary.updates},
       {"recomputed_points", summary.recomputed_points},
       {"recomputed_images", summary.recomputed_images},
+      {"deferred_points", summary.deferred_points},
+      {"deferred_images", summary.deferred_images},
       {"update_ms", summary.update_ms},
       {"per_image", images}};
 }

@@ -164,6 +164,71 @@ TEST_CASE("An update recomputes only what the change touched, and agrees with a 
   CHECK(tracker.Summarize().updates == 2);
 }
 
+TEST_CASE("Past the refresh budget what a bundle only moved waits, and new points never wait") {
+  Reconstruction r = Scene();
+  QualityTracker::Options options = Fixed();
+  options.refresh_budget_ms = 0;
+  QualityTracker tracker(options);
+  r.TakeChanges();
+  tracker.Rebuild(r);
+
+  // A pose and a point moved, as a local BA moves them.
+  const image_t image_id = r.RegisteredImageIds()[2];
+  Rigid3d pose = *r.image(image_id).cam_from_world;
+  pose.translation += Eigen::Vector3d(0.02, 0, 0);
+  r.RegisterImage(image_id, pose);
+  const point3D_t moved = r.points3D().begin()->first;
+  bool moved_seen_by_image = false;
+  for (const TrackElement& element : r.point3D(moved).track) {
+    moved_seen_by_image |= element.image_id == image_id;
+  }
+  const Eigen::Vector3d step(0.01, -0.02, 0.03);
+  r.point3D(moved).xyz += step;
+  r.MarkPointChanged(moved);
+  double nearest = std::numeric_limits<double>::infinity();
+  for (const TrackElement& element : r.point3D(moved).track) {
+    nearest = std::min(nearest, (*r.image(element.image_id).cam_from_world * r.point3D(moved).xyz).z());
+  }
+  tracker.Update(r, r.TakeChanges());
+  const QualityTracker::Summary waiting = tracker.Summarize();
+  CHECK(waiting.last_recomputed_points == 0);
+  CHECK(waiting.last_recomputed_images == 0);
+  CHECK(waiting.deferred_images == 1);
+  CHECK(waiting.deferred_points ==
+        std::size_t(r.image(image_id).num_points3D) + (moved_seen_by_image ? 0 : 1));
+  CHECK(tracker.Point(moved)->sigma != MeasurePoint(r, moved, 1.0).sigma);
+
+  // A point triangulated again: the old one goes, the new one is measured at
+  // once, and so are the images that observed the old one, whatever waits.
+  point3D_t old_point = moved;
+  for (const auto& [id, point] : r.points3D()) {
+    if (id != moved) old_point = id;
+  }
+  REQUIRE(old_point != moved);
+  const Eigen::Vector3d old_xyz = r.point3D(old_point).xyz;
+  const std::vector<TrackElement> track = r.point3D(old_point).track;
+  r.DeletePoint3D(old_point);
+  const point3D_t added = r.AddPoint3D(old_xyz, track);
+  tracker.Update(r, r.TakeChanges());
+  CHECK_FALSE(tracker.Point(old_point));
+  CHECK(tracker.Point(added)->views == int(track.size()));
+  CHECK(tracker.Point(added)->sigma == MeasurePoint(r, added, 1.0).sigma);
+  CHECK(tracker.Summarize().last_recomputed_images == track.size());
+  for (const TrackElement& element : track) {
+    CHECK(SameSigma(tracker.Image(element.image_id)->center_sigma,
+                    MeasureImage(r, element.image_id, 1.0).center_sigma));
+  }
+
+  // Flush: everything current, nothing waits.
+  tracker.Flush(r);
+  CHECK(tracker.Summarize().deferred_points == 0);
+  CHECK(tracker.Summarize().deferred_images == 0);
+  // The images seeing the moved point keep their measures (above).
+  CheckCurrent(tracker, r, 2 * step.norm() / nearest);
+  CHECK(SameSigma(tracker.Image(image_id)->center_sigma,
+                  MeasureImage(r, image_id, 1.0).center_sigma));
+}
+
 TEST_CASE("With the model's RMS as the pixel noise, every sigma scales with it") {
   const Reconstruction r = Scene(0.8);
   QualityTracker::Options options;
@@ -266,6 +331,9 @@ TEST_CASE("Bad quality options are refused, naming the option") {
   options = {};
   options.min_views = 1;
   CHECK_THROWS_WITH(QualityTracker(options), Catch::Contains("min_views"));
+  options = {};
+  options.refresh_budget_ms = -1;
+  CHECK_THROWS_WITH(QualityTracker(options), Catch::Contains("refresh_budget_ms"));
   options = {};
   options.prior_redundancy = 0;
   CHECK_THROWS_WITH(QualityTracker(options), Catch::Contains("prior_redundancy"));
