@@ -63,23 +63,34 @@ std::optional<Eigen::Matrix<double, 2, 3>> ProjectionJacobian(const Camera& came
   return jacobian;
 }
 
+std::optional<Eigen::Matrix3d> ViewInformation(const Eigen::Vector3d& xyz, const PointView& view) {
+  const std::optional<Eigen::Matrix<double, 2, 3>> projection =
+      ProjectionJacobian(*view.camera, view.cam_from_world * xyz);
+  if (!projection) return std::nullopt;
+  // d in_cam / d xyz is the rotation.
+  const Eigen::Matrix<double, 2, 3> jacobian =
+      *projection * view.cam_from_world.rotation.toRotationMatrix();
+  return Eigen::Matrix3d(jacobian.transpose() * jacobian);
+}
+
+std::optional<Eigen::Matrix3d> CovarianceFromInformation(const Eigen::Matrix3d& information,
+                                                         double sigma_px) {
+  const std::optional<Eigen::Matrix3d> inverse = InvertInformation<3>(information);
+  if (!inverse) return std::nullopt;
+  return Eigen::Matrix3d(sigma_px * sigma_px * *inverse);
+}
+
 std::optional<Eigen::Matrix3d> PointCovariance(const Eigen::Vector3d& xyz,
                                                const std::vector<PointView>& views,
                                                double sigma_px) {
   if (views.size() < 2) return std::nullopt;
   Eigen::Matrix3d information = Eigen::Matrix3d::Zero();
   for (const PointView& view : views) {
-    const std::optional<Eigen::Matrix<double, 2, 3>> projection =
-        ProjectionJacobian(*view.camera, view.cam_from_world * xyz);
-    if (!projection) return std::nullopt;
-    // d in_cam / d xyz is the rotation.
-    const Eigen::Matrix<double, 2, 3> jacobian =
-        *projection * view.cam_from_world.rotation.toRotationMatrix();
-    information += jacobian.transpose() * jacobian;
+    const std::optional<Eigen::Matrix3d> share = ViewInformation(xyz, view);
+    if (!share) return std::nullopt;
+    information += *share;
   }
-  const std::optional<Eigen::Matrix3d> inverse = InvertInformation<3>(information);
-  if (!inverse) return std::nullopt;
-  return Eigen::Matrix3d(sigma_px * sigma_px * *inverse);
+  return CovarianceFromInformation(information, sigma_px);
 }
 
 std::optional<Eigen::Matrix<double, 6, 6>> PoseCovariance(
@@ -159,28 +170,38 @@ double ConvexHullArea(std::vector<Eigen::Vector2d> points) {
 }
 
 PointQuality MeasurePoint(const Reconstruction& reconstruction, point3D_t point3D_id,
-                          double sigma_px) {
+                          double sigma_px, std::optional<Eigen::Matrix3d>* information) {
   const Point3D& point = reconstruction.point3D(point3D_id);
   PointQuality quality;
   quality.views = int(point.track.size());
-  std::vector<PointView> views;
   std::vector<Eigen::Vector3d> centers;
   double error_sum = 0;
+  std::optional<Eigen::Matrix3d> sum = Eigen::Matrix3d::Zero();
   for (const TrackElement& element : point.track) {
     const Image& image = reconstruction.image(element.image_id);
-    views.push_back({*image.cam_from_world, &reconstruction.camera(image.camera_id)});
     centers.push_back(ProjectionCenter(*image.cam_from_world));
     const double error =
         reconstruction.ReprojectionError(element.image_id, element.point2D_idx, point.xyz);
     error_sum += error;
     quality.squared_error_sum += error * error;
+    if (!sum) continue;
+    const std::optional<Eigen::Matrix3d> share = ViewInformation(
+        point.xyz, {*image.cam_from_world, &reconstruction.camera(image.camera_id)});
+    if (share) {
+      *sum += *share;
+    } else {
+      sum.reset();
+    }
   }
   if (!point.track.empty()) quality.error_px = error_sum / double(point.track.size());
   quality.max_angle_deg = MaxTriangulationAngleDeg(point.xyz, centers);
-  if (const std::optional<Eigen::Matrix3d> covariance =
-          PointCovariance(point.xyz, views, sigma_px)) {
-    quality.sigma = LargestStdDev(*covariance);
+  if (sum && point.track.size() >= 2) {
+    if (const std::optional<Eigen::Matrix3d> covariance =
+            CovarianceFromInformation(*sum, sigma_px)) {
+      quality.sigma = LargestStdDev(*covariance);
+    }
   }
+  if (information) *information = sum;
   return quality;
 }
 

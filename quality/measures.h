@@ -37,6 +37,16 @@ struct PointView {
   const Camera* camera = nullptr;
 };
 
+// One view's share of a point's information for 1 px of noise, J^T J with
+// J = d pixel / d xyz (2x3); nullopt when the point is not in front of it.
+// A point's information is the sum over its views.
+std::optional<Eigen::Matrix3d> ViewInformation(const Eigen::Vector3d& xyz, const PointView& view);
+
+// sigma_px^2 information^-1 (information for 1 px), nullopt when it is
+// singular as PointCovariance says.
+std::optional<Eigen::Matrix3d> CovarianceFromInformation(const Eigen::Matrix3d& information,
+                                                         double sigma_px);
+
 // The point's 3x3 covariance, poses and intrinsics held: sigma_px^2
 // (sum_i J_i^T J_i)^-1, J_i = d pixel_i / d xyz. nullopt for fewer than two
 // views, a view the point is not in front of, or rays too close to parallel
@@ -93,8 +103,12 @@ struct ImageQuality {
 // pixel noise `sigma_px`. The reprojection error is the model's own
 // (Reconstruction::ReprojectionError, rolling shutter included); the
 // Jacobians use the static projection.
+// `information`, when given, receives the point's information for 1 px
+// (nullopt when a view has the point behind it): what an extension of its
+// track adds to (QualityTracker).
 PointQuality MeasurePoint(const Reconstruction& reconstruction, point3D_t point3D_id,
-                          double sigma_px);
+                          double sigma_px,
+                          std::optional<Eigen::Matrix3d>* information = nullptr);
 ImageQuality MeasureImage(const Reconstruction& reconstruction, image_t image_id,
                           double sigma_px);
 

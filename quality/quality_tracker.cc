@@ -43,7 +43,7 @@ void QualityTracker::RecomputePoint(const Reconstruction& reconstruction,
                                     point3D_t point3D_id) {
   ErasePoint(point3D_id);
   CachedPoint& cached = points_[point3D_id];
-  cached.quality = MeasurePoint(reconstruction, point3D_id, 1.0);
+  cached.quality = MeasurePoint(reconstruction, point3D_id, 1.0, &cached.information);
   for (const TrackElement& element : reconstruction.point3D(point3D_id).track) {
     cached.images.push_back(element.image_id);
   }
@@ -51,6 +51,75 @@ void QualityTracker::RecomputePoint(const Reconstruction& reconstruction,
   num_observations_ += std::size_t(cached.quality.views);
   ++counters_.last_recomputed_points;
   last_recomputed_points_.push_back(point3D_id);
+}
+
+QualityTracker::TrackChange QualityTracker::TrackChangeOf(const Reconstruction& reconstruction,
+                                                          point3D_t point3D_id) const {
+  const auto cached = points_.find(point3D_id);
+  if (cached == points_.end()) return TrackChange::kOther;
+  const std::vector<TrackElement>& track = reconstruction.point3D(point3D_id).track;
+  const std::vector<image_t>& measured = cached->second.images;
+  if (track.size() < measured.size()) return TrackChange::kOther;
+  // Every measured image still in the track (a point has one observation
+  // per image), in the same order: the engine appends to a track.
+  for (std::size_t i = 0; i < measured.size(); ++i) {
+    if (track[i].image_id != measured[i]) return TrackChange::kOther;
+  }
+  return track.size() == measured.size() ? TrackChange::kNone : TrackChange::kExtended;
+}
+
+void QualityTracker::ExtendPoint(const Reconstruction& reconstruction, point3D_t point3D_id) {
+  CachedPoint& cached = points_.at(point3D_id);
+  const Point3D& point = reconstruction.point3D(point3D_id);
+  const std::size_t old_views = cached.images.size();
+  PointQuality& quality = cached.quality;
+  double error_sum = quality.error_px * double(old_views);
+  double added_squared = 0;
+  double max_angle = quality.max_angle_deg * M_PI / 180.0;
+  for (std::size_t i = old_views; i < point.track.size(); ++i) {
+    const TrackElement& element = point.track[i];
+    const flysfm::Image& image = reconstruction.image(element.image_id);
+    const double error =
+        reconstruction.ReprojectionError(element.image_id, element.point2D_idx, point.xyz);
+    error_sum += error;
+    added_squared += error * error;
+    if (cached.information) {
+      const PointView view{*image.cam_from_world, &reconstruction.camera(image.camera_id)};
+      const std::optional<Eigen::Matrix3d> share = ViewInformation(point.xyz, view);
+      if (share) {
+        *cached.information += *share;
+      } else {
+        cached.information.reset();
+      }
+    }
+    const Eigen::Vector3d ray = (point.xyz - ProjectionCenter(*image.cam_from_world)).normalized();
+    for (std::size_t j = 0; j < i; ++j) {
+      const flysfm::Image& other = reconstruction.image(point.track[j].image_id);
+      const Eigen::Vector3d other_ray =
+          (point.xyz - ProjectionCenter(*other.cam_from_world)).normalized();
+      max_angle = std::max(max_angle, std::atan2(ray.cross(other_ray).norm(), ray.dot(other_ray)));
+    }
+    cached.images.push_back(element.image_id);
+  }
+  const std::size_t added = point.track.size() - old_views;
+  quality.views = int(point.track.size());
+  quality.error_px = error_sum / double(point.track.size());
+  quality.squared_error_sum += added_squared;
+  quality.max_angle_deg = max_angle * 180.0 / M_PI;
+  quality.sigma.reset();
+  if (cached.information && point.track.size() >= 2) {
+    if (const std::optional<Eigen::Matrix3d> covariance =
+            CovarianceFromInformation(*cached.information, 1.0)) {
+      quality.sigma = LargestStdDev(*covariance);
+    }
+  }
+  squared_error_sum_ += added_squared;
+  num_observations_ += added;
+  ++counters_.last_recomputed_points;
+  last_recomputed_points_.push_back(point3D_id);
+  // The point moved as its track grew (triangulated again, adjusted): the
+  // exact measure within the refresh budget.
+  dirty_points_.Push(point3D_id);
 }
 
 namespace {
@@ -160,12 +229,15 @@ void QualityTracker::Recompute(const Reconstruction& reconstruction,
     }
   };
   // A point whose observations are those its measure was taken with, which
-  // only moved: measured again within the refresh budget.
-  const auto only_moved = [&](point3D_t point3D_id) {
-    const auto cached = points_.find(point3D_id);
-    return cached != points_.end() &&
-           std::size_t(cached->second.quality.views) ==
-               reconstruction.point3D(point3D_id).track.size();
+  // only moved, waits for the refresh budget; one whose track only grew is
+  // extended now at the cost of what it gained; any other is measured now.
+  std::set<point3D_t> extended;
+  const auto classify = [&](point3D_t point3D_id) {
+    switch (TrackChangeOf(reconstruction, point3D_id)) {
+      case TrackChange::kNone: dirty_points_.Push(point3D_id); break;
+      case TrackChange::kExtended: extended.insert(point3D_id); break;
+      case TrackChange::kOther: points.insert(point3D_id); break;
+    }
   };
   for (const point3D_t id : changes.removed_points) {
     track_images(id, &images);
@@ -178,12 +250,7 @@ void QualityTracker::Recompute(const Reconstruction& reconstruction,
   }
   for (const point3D_t id : changes.changed_points) {
     track_images(id, &seeing_changed);
-    if (!reconstruction.ExistsPoint3D(id)) continue;
-    if (only_moved(id)) {
-      dirty_points_.Push(id);
-    } else {
-      points.insert(id);
-    }
+    if (reconstruction.ExistsPoint3D(id)) classify(id);
   }
   for (const image_t id : seeing_changed) {
     const auto cached = images_.find(id);
@@ -205,18 +272,15 @@ void QualityTracker::Recompute(const Reconstruction& reconstruction,
     // Its points see it from elsewhere now; their positions did not move,
     // so the other images observing them keep their measures.
     for (const Point2D& point2D : reconstruction.image(id).points2D) {
-      if (!point2D.HasPoint3D()) continue;
-      if (only_moved(point2D.point3D_id)) {
-        dirty_points_.Push(point2D.point3D_id);
-      } else {
-        points.insert(point2D.point3D_id);
-      }
+      if (point2D.HasPoint3D()) classify(point2D.point3D_id);
     }
   }
   for (const point3D_t id : points) {
     dirty_points_.Erase(id);
+    extended.erase(id);
     RecomputePoint(reconstruction, id);
   }
+  for (const point3D_t id : extended) ExtendPoint(reconstruction, id);
   for (const image_t id : images) {
     dirty_images_.Erase(id);
     if (!reconstruction.ExistsImage(id) || !reconstruction.image(id).IsRegistered()) {

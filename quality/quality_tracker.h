@@ -134,7 +134,17 @@ class QualityTracker {
   struct CachedPoint {
     PointQuality quality;  // sigma for 1 px
     std::vector<image_t> images;  // its track's, for what its removal touches
+    // Its information for 1 px (nullopt: a view had it behind), which an
+    // extension of its track adds to.
+    std::optional<Eigen::Matrix3d> information;
   };
+  // What a changed point's track did since its measure.
+  enum class TrackChange { kNone, kExtended, kOther };
+  TrackChange TrackChangeOf(const Reconstruction& reconstruction, point3D_t point3D_id) const;
+  // A track that only gained observations: their shares added to the cached
+  // measure, at the cost of the new observations (the angle: of the new
+  // rays against the track); the point is then queued for an exact measure.
+  void ExtendPoint(const Reconstruction& reconstruction, point3D_t point3D_id);
   void Recompute(const Reconstruction& reconstruction, const Reconstruction::Changes& changes);
   // Measures waiting elements, oldest first, until `budget_ms` from `start`.
   void Refresh(const Reconstruction& reconstruction, std::chrono::steady_clock::time_point start,

@@ -229,6 +229,38 @@ TEST_CASE("Past the refresh budget what a bundle only moved waits, and new point
                   MeasureImage(r, image_id, 1.0).center_sigma));
 }
 
+TEST_CASE("A track that only grew is measured at the cost of what it gained, as from scratch") {
+  Reconstruction r = Scene();
+  QualityTracker::Options options = Fixed();
+  options.refresh_budget_ms = 0;
+  QualityTracker tracker(options);
+  r.TakeChanges();
+  tracker.Rebuild(r);
+  point3D_t id = kInvalidPoint3DId;
+  for (const auto& [candidate, point] : r.points3D()) {
+    if (point.track.size() >= 3) id = candidate;
+  }
+  REQUIRE(id != kInvalidPoint3DId);
+  // Its last observation dropped (measured again), then given back: the
+  // track grew by one, as a new image's match extends it.
+  const TrackElement last = r.point3D(id).track.back();
+  r.DeleteObservation(last.image_id, last.point2D_idx);
+  tracker.Update(r, r.TakeChanges());
+  r.AddObservation(id, last);
+  tracker.Update(r, r.TakeChanges());
+  CHECK(tracker.Summarize().last_recomputed_points == 1);
+  // The exact measure is still queued (the point may have moved as it grew).
+  CHECK(tracker.Summarize().deferred_points == 1);
+  // It did not move here: the extended measure is the measure from scratch.
+  const PointQuality expected = MeasurePoint(r, id, 1.0);
+  const PointQuality extended = *tracker.Point(id);
+  CHECK(extended.views == expected.views);
+  CHECK(extended.max_angle_deg == Approx(expected.max_angle_deg).epsilon(1e-12));
+  CHECK(extended.error_px == Approx(expected.error_px).epsilon(1e-12));
+  CHECK(extended.squared_error_sum == Approx(expected.squared_error_sum).epsilon(1e-12));
+  CHECK(SameSigma(extended.sigma, expected.sigma));
+}
+
 TEST_CASE("With the model's RMS as the pixel noise, every sigma scales with it") {
   const Reconstruction r = Scene(0.8);
   QualityTracker::Options options;
