@@ -214,10 +214,14 @@ void QualityTracker::Recompute(const Reconstruction& reconstruction,
   // by what the image brought).
   std::set<point3D_t> points;
   std::set<image_t> images;
-  // Images that see a point that moved or whose track changed: measured now
-  // when their observations changed (a track gained or lost them). A point
-  // a local BA only moved, the image's pose held, turns that image's ray by
-  // about the noise over the depth: its measures stay (docs/quality.md).
+  // Images whose observations came or went: measured now when new to the
+  // tracker, else within the refresh budget (a thousand observations each,
+  // and in a long session a new image's points reach dozens of them).
+  std::set<image_t> observations_changed;
+  // Images that see a point that moved or whose track changed: theirs
+  // changed when their count of points did. A point a local BA only moved,
+  // the image's pose held, turns that image's ray by about the noise over
+  // the depth: its measures stay (docs/quality.md).
   std::set<image_t> seeing_changed;
   const auto track_images = [&](point3D_t point3D_id, std::set<image_t>* into) {
     const auto cached = points_.find(point3D_id);
@@ -240,12 +244,12 @@ void QualityTracker::Recompute(const Reconstruction& reconstruction,
     }
   };
   for (const point3D_t id : changes.removed_points) {
-    track_images(id, &images);
+    track_images(id, &observations_changed);
     ErasePoint(id);
     dirty_points_.Erase(id);
   }
   for (const point3D_t id : changes.added_points) {
-    track_images(id, &images);
+    track_images(id, &observations_changed);
     if (reconstruction.ExistsPoint3D(id)) points.insert(id);
   }
   for (const point3D_t id : changes.changed_points) {
@@ -256,6 +260,15 @@ void QualityTracker::Recompute(const Reconstruction& reconstruction,
     const auto cached = images_.find(id);
     if (cached == images_.end() || !reconstruction.ExistsImage(id) ||
         cached->second.inliers != reconstruction.image(id).num_points3D) {
+      observations_changed.insert(id);
+    }
+  }
+  for (const image_t id : observations_changed) {
+    const bool measured = images_.count(id) && reconstruction.ExistsImage(id) &&
+                          reconstruction.image(id).IsRegistered();
+    if (measured) {
+      dirty_images_.Push(id);
+    } else {
       images.insert(id);
     }
   }

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <set>
 
 #include <catch2/catch.hpp>
 
@@ -199,7 +200,8 @@ TEST_CASE("Past the refresh budget what a bundle only moved waits, and new point
   CHECK(tracker.Point(moved)->sigma != MeasurePoint(r, moved, 1.0).sigma);
 
   // A point triangulated again: the old one goes, the new one is measured at
-  // once, and so are the images that observed the old one, whatever waits.
+  // once; the images that observed the old one wait, their observations
+  // changed (a thousand each in a real model).
   point3D_t old_point = moved;
   for (const auto& [id, point] : r.points3D()) {
     if (id != moved) old_point = id;
@@ -213,11 +215,10 @@ TEST_CASE("Past the refresh budget what a bundle only moved waits, and new point
   CHECK_FALSE(tracker.Point(old_point));
   CHECK(tracker.Point(added)->views == int(track.size()));
   CHECK(tracker.Point(added)->sigma == MeasurePoint(r, added, 1.0).sigma);
-  CHECK(tracker.Summarize().last_recomputed_images == track.size());
-  for (const TrackElement& element : track) {
-    CHECK(SameSigma(tracker.Image(element.image_id)->center_sigma,
-                    MeasureImage(r, element.image_id, 1.0).center_sigma));
-  }
+  CHECK(tracker.Summarize().last_recomputed_images == 0);
+  std::set<image_t> waiting_images = {image_id};
+  for (const TrackElement& element : track) waiting_images.insert(element.image_id);
+  CHECK(tracker.Summarize().deferred_images == waiting_images.size());
 
   // Flush: everything current, nothing waits.
   tracker.Flush(r);
