@@ -263,24 +263,20 @@ void QualityTracker::Recompute(const Reconstruction& reconstruction,
       observations_changed.insert(id);
     }
   }
-  for (const image_t id : observations_changed) {
-    const bool measured = images_.count(id) && reconstruction.ExistsImage(id) &&
-                          reconstruction.image(id).IsRegistered();
+  // Registered now or deregistered: now; one measured before, whose pose a
+  // bundle moved or whose observations changed: within the budget.
+  const auto queue_image = [&](image_t image_id) {
+    const bool measured = images_.count(image_id) && reconstruction.ExistsImage(image_id) &&
+                          reconstruction.image(image_id).IsRegistered();
     if (measured) {
-      dirty_images_.Push(id);
+      dirty_images_.Push(image_id);
     } else {
-      images.insert(id);
+      images.insert(image_id);
     }
-  }
+  };
+  for (const image_t id : observations_changed) queue_image(id);
   for (const image_t id : changes.changed_images) {
-    // Registered now or deregistered: now; a pose a bundle moved: later.
-    const bool moved = images_.count(id) && reconstruction.ExistsImage(id) &&
-                       reconstruction.image(id).IsRegistered();
-    if (moved) {
-      dirty_images_.Push(id);
-    } else {
-      images.insert(id);
-    }
+    queue_image(id);
     if (!reconstruction.ExistsImage(id)) continue;
     // Its points see it from elsewhere now; their positions did not move,
     // so the other images observing them keep their measures.

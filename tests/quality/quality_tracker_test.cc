@@ -165,13 +165,19 @@ TEST_CASE("An update recomputes only what the change touched, and agrees with a 
   CHECK(tracker.Summarize().updates == 2);
 }
 
-TEST_CASE("Past the refresh budget what a bundle only moved waits, and new points never wait") {
-  Reconstruction r = Scene();
+// A tracker with a fixed noise and no refresh budget, measuring `r`.
+QualityTracker WithoutBudget(Reconstruction* r) {
   QualityTracker::Options options = Fixed();
   options.refresh_budget_ms = 0;
   QualityTracker tracker(options);
-  r.TakeChanges();
-  tracker.Rebuild(r);
+  r->TakeChanges();
+  tracker.Rebuild(*r);
+  return tracker;
+}
+
+TEST_CASE("Past the refresh budget what a bundle only moved waits, and new points never wait") {
+  Reconstruction r = Scene();
+  QualityTracker tracker = WithoutBudget(&r);
 
   // A pose and a point moved, as a local BA moves them.
   const image_t image_id = r.RegisteredImageIds()[2];
@@ -232,11 +238,7 @@ TEST_CASE("Past the refresh budget what a bundle only moved waits, and new point
 
 TEST_CASE("A track that only grew is measured at the cost of what it gained, as from scratch") {
   Reconstruction r = Scene();
-  QualityTracker::Options options = Fixed();
-  options.refresh_budget_ms = 0;
-  QualityTracker tracker(options);
-  r.TakeChanges();
-  tracker.Rebuild(r);
+  QualityTracker tracker = WithoutBudget(&r);
   point3D_t id = kInvalidPoint3DId;
   for (const auto& [candidate, point] : r.points3D()) {
     if (point.track.size() >= 3) id = candidate;
