@@ -11,7 +11,7 @@ namespace flysfm {
 // when the features are out. glibc's defaults give that thread an arena of
 // its own, whose 64 MB heaps are unmapped as soon as they are free, and slide
 // the size above which a block is mapped by itself: on bench_photos' 6 MP
-// session 4.1 million page faults, a quarter of the run's CPU time in the
+// photos that is 4.1 million page faults, a quarter of the run's CPU time in the
 // kernel and SIFT's median doubled (docs/engine.md, "The allocator").
 struct MallocPolicy {
   // One arena for every thread: what a thread frees, another reuses.
