@@ -124,6 +124,10 @@ double LargestStdDev(const Eigen::Matrix3d& covariance) {
   return std::sqrt(std::max(0.0, solver.eigenvalues()(2)));
 }
 
+double RayAngle(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+  return std::atan2(a.cross(b).norm(), a.dot(b));
+}
+
 double MaxTriangulationAngleDeg(const Eigen::Vector3d& xyz,
                                 const std::vector<Eigen::Vector3d>& centers) {
   std::vector<Eigen::Vector3d> rays;
@@ -132,10 +136,7 @@ double MaxTriangulationAngleDeg(const Eigen::Vector3d& xyz,
   double max_angle = 0;
   for (std::size_t i = 0; i < rays.size(); ++i) {
     for (std::size_t j = i + 1; j < rays.size(); ++j) {
-      // atan2 of |a x b| and a.b: exact near 0, where acos of a dot product
-      // loses half the digits.
-      max_angle = std::max(max_angle,
-                           std::atan2(rays[i].cross(rays[j]).norm(), rays[i].dot(rays[j])));
+      max_angle = std::max(max_angle, RayAngle(rays[i], rays[j]));
     }
   }
   return max_angle * 180.0 / M_PI;

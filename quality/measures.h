@@ -72,6 +72,10 @@ std::optional<Eigen::Matrix<double, 6, 6>> PoseCovariance(
 // deviation along the worst direction.
 double LargestStdDev(const Eigen::Matrix3d& covariance);
 
+// The angle in radians between two rays (any lengths): atan2 of |a x b| and
+// a.b, exact near 0, where acos of a dot product loses half the digits.
+double RayAngle(const Eigen::Vector3d& a, const Eigen::Vector3d& b);
+
 // The largest angle in degrees between the rays from `centers` to `xyz`
 // (0 for fewer than two).
 double MaxTriangulationAngleDeg(const Eigen::Vector3d& xyz,

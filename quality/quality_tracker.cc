@@ -92,12 +92,11 @@ void QualityTracker::ExtendPoint(const Reconstruction& reconstruction, point3D_t
         cached.information.reset();
       }
     }
-    const Eigen::Vector3d ray = (point.xyz - ProjectionCenter(*image.cam_from_world)).normalized();
+    const Eigen::Vector3d ray = point.xyz - ProjectionCenter(*image.cam_from_world);
     for (std::size_t j = 0; j < i; ++j) {
       const flysfm::Image& other = reconstruction.image(point.track[j].image_id);
-      const Eigen::Vector3d other_ray =
-          (point.xyz - ProjectionCenter(*other.cam_from_world)).normalized();
-      max_angle = std::max(max_angle, std::atan2(ray.cross(other_ray).norm(), ray.dot(other_ray)));
+      max_angle = std::max(
+          max_angle, RayAngle(ray, point.xyz - ProjectionCenter(*other.cam_from_world)));
     }
     cached.images.push_back(element.image_id);
   }
@@ -141,39 +140,39 @@ void QualityTracker::Rebuild(const Reconstruction& reconstruction) {
 
 double QualityTracker::Update(const Reconstruction& reconstruction,
                               const Reconstruction::Changes& changes) {
-  const auto start = std::chrono::steady_clock::now();
-  counters_.last_recomputed_points = 0;
-  counters_.last_recomputed_images = 0;
-  last_recomputed_points_.clear();
-  if (changes.changed_cameras) {
-    // Intrinsics move every projection: all of it again (a global BA's
-    // change, which cost the model's size already).
-    points_.clear();
-    images_.clear();
-    dirty_points_.clear();
-    dirty_images_.clear();
-    squared_error_sum_ = 0;
-    num_observations_ = 0;
-    Recompute(reconstruction, Everything(reconstruction));
-  } else {
-    Recompute(reconstruction, changes);
-  }
-  Refresh(reconstruction, start, options_.refresh_budget_ms);
-  counters_.recomputed_points += counters_.last_recomputed_points;
-  counters_.recomputed_images += counters_.last_recomputed_images;
+  const double ms = Timed([&](std::chrono::steady_clock::time_point start) {
+    if (changes.changed_cameras) {
+      // Intrinsics move every projection: all of it again (a global BA's
+      // change, which cost the model's size already).
+      points_.clear();
+      images_.clear();
+      dirty_points_.clear();
+      dirty_images_.clear();
+      squared_error_sum_ = 0;
+      num_observations_ = 0;
+      Recompute(reconstruction, Everything(reconstruction));
+    } else {
+      Recompute(reconstruction, changes);
+    }
+    Refresh(reconstruction, start, options_.refresh_budget_ms);
+  });
   ++counters_.updates;
-  const double ms =
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-  counters_.update_ms += ms;
   return ms;
 }
 
 double QualityTracker::Flush(const Reconstruction& reconstruction) {
+  return Timed([&](std::chrono::steady_clock::time_point start) {
+    Refresh(reconstruction, start, std::numeric_limits<double>::infinity());
+  });
+}
+
+double QualityTracker::Timed(
+    const std::function<void(std::chrono::steady_clock::time_point)>& work) {
   const auto start = std::chrono::steady_clock::now();
   counters_.last_recomputed_points = 0;
   counters_.last_recomputed_images = 0;
   last_recomputed_points_.clear();
-  Refresh(reconstruction, start, std::numeric_limits<double>::infinity());
+  work(start);
   counters_.recomputed_points += counters_.last_recomputed_points;
   counters_.recomputed_images += counters_.last_recomputed_images;
   const double ms =

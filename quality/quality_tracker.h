@@ -7,6 +7,7 @@
 
 #include <chrono>
 #include <deque>
+#include <functional>
 #include <optional>
 #include <string>
 #include <unordered_map>
@@ -101,11 +102,12 @@ class QualityTracker {
   void Rebuild(const Reconstruction& reconstruction);
   // Brings the measures up to date after `changes`, a take of
   // reconstruction.TakeChanges(). Every change since the last Rebuild or
-  // Update must be in some take given here. Recomputes the points added,
-  // changed or observed by an image whose pose changed, and the images
-  // whose pose changed or that observe (or observed) a point added, changed
-  // or removed; written intrinsics recompute everything. Returns its time in
-  // ms.
+  // Update must be in some take given here. Measures at once what is new
+  // (points added or whose track changed, a track that only grew extended
+  // by its new observations, images registered or deregistered); what a
+  // bundle only moved, and images whose observations changed, within
+  // options.refresh_budget_ms, oldest first; written intrinsics: everything
+  // (docs/quality.md, "Kept current"). Returns its time in ms.
   double Update(const Reconstruction& reconstruction, const Reconstruction::Changes& changes);
   // Measures again everything still waiting from the refresh budget, so that
   // every measure is current (the end of a run, before its files). Returns
@@ -147,6 +149,9 @@ class QualityTracker {
   // rays against the track); the point is then queued for an exact measure.
   void ExtendPoint(const Reconstruction& reconstruction, point3D_t point3D_id);
   void Recompute(const Reconstruction& reconstruction, const Reconstruction::Changes& changes);
+  // Runs `work` (given its start) with the counters of one update: what it
+  // recomputed, its time, which it returns in ms.
+  double Timed(const std::function<void(std::chrono::steady_clock::time_point)>& work);
   // Measures waiting elements, oldest first, until `budget_ms` from `start`.
   void Refresh(const Reconstruction& reconstruction, std::chrono::steady_clock::time_point start,
                double budget_ms);
