@@ -1,6 +1,7 @@
 #include "geometry/similarity.h"
 
 #include <cmath>
+#include <cstddef>
 
 #include <Eigen/Dense>
 
@@ -67,6 +68,60 @@ std::optional<Alignment> Align(const std::vector<Eigen::Vector3d>& src,
   return alignment;
 }
 
+// For Ransac(): the minimal sample and the inliers are fitted by the same
+// least squares, as Umeyama on three points is exact and a separate minimal
+// solver would only duplicate it.
+class SimilarityEstimator {
+ public:
+  using Model = Sim3d;
+  static constexpr int kMinSampleSize = 3;
+
+  SimilarityEstimator(const std::vector<Eigen::Vector3d>& src,
+                      const std::vector<Eigen::Vector3d>& dst)
+      : src_(src), dst_(dst) {}
+
+  int NumData() const { return static_cast<int>(src_.size()); }
+
+  void MinimalSolve(const std::vector<int>& sample,
+                    std::vector<Model>* models) const {
+    Fit(sample, models);
+  }
+
+  void NonMinimalSolve(const std::vector<int>& indices, const Model&,
+                       std::vector<Model>* models) const {
+    Fit(indices, models);
+  }
+
+  // On a fixed inlier set the least-squares fit already minimizes the error
+  // below, so there is nothing non-linear to refine: this is that fit again,
+  // which matters only when local optimisation is off.
+  bool Refine(const std::vector<int>& inliers, Model* model) const {
+    std::vector<Model> fits;
+    Fit(inliers, &fits);
+    if (fits.empty()) return false;
+    *model = fits.front();
+    return true;
+  }
+
+  double SquaredError(const Model& dst_from_src, int i) const {
+    return (dst_[i] - dst_from_src * src_[i]).squaredNorm();
+  }
+
+ private:
+  void Fit(const std::vector<int>& indices, std::vector<Model>* models) const {
+    std::vector<Eigen::Vector3d> src(indices.size()), dst(indices.size());
+    for (std::size_t k = 0; k < indices.size(); ++k) {
+      src[k] = src_[indices[k]];
+      dst[k] = dst_[indices[k]];
+    }
+    models->clear();
+    if (const auto fit = SimilarityFromPoints(src, dst)) models->push_back(*fit);
+  }
+
+  const std::vector<Eigen::Vector3d>& src_;
+  const std::vector<Eigen::Vector3d>& dst_;
+};
+
 }  // namespace
 
 std::optional<Sim3d> SimilarityFromPoints(const std::vector<Eigen::Vector3d>& src,
@@ -82,6 +137,15 @@ std::optional<Rigid3d> RigidFromPoints(const std::vector<Eigen::Vector3d>& src,
   const auto alignment = Align(src, dst, false);
   if (!alignment) return std::nullopt;
   return Rigid3d(alignment->rotation, alignment->translation);
+}
+
+RansacResult<Sim3d> EstimateSimilarity(const std::vector<Eigen::Vector3d>& src,
+                                       const std::vector<Eigen::Vector3d>& dst,
+                                       const RansacOptions& options) {
+  // Options first, so that a bad configuration throws whatever the data.
+  ThrowIfInvalid(RansacOptionsProblem(options));
+  if (src.size() != dst.size()) return {};
+  return Ransac(SimilarityEstimator(src, dst), options);
 }
 
 }  // namespace flysfm
