@@ -38,48 +38,132 @@ struct AddedResidual {
   bool HasPoseBlocks() const { return point_block > 0; }
 };
 
-// The poses held constant for the solve (the problem's flags plus the gauge)
-// and the translation component held for scale, if any.
-struct GaugeChoice {
-  std::vector<char> constant_pose;
-  int scale_image = -1;
-  int scale_axis = -1;
+// A translation component held for scale.
+struct ScaleHold {
+  int image = -1;
+  int axis = -1;
 };
 
+// The poses held constant for the solve (the problem's flags plus the gauge)
+// and the translation components held for scale, at most one per connected
+// block.
+struct GaugeChoice {
+  std::vector<char> constant_pose;
+  std::vector<ScaleHold> scale_holds;
+};
+
+// Union-find over images, with path halving.
+class ImageComponents {
+ public:
+  explicit ImageComponents(int num_images) : parent_(num_images) {
+    for (int i = 0; i < num_images; ++i) parent_[i] = i;
+  }
+  int Find(int i) {
+    while (parent_[i] != i) {
+      parent_[i] = parent_[parent_[i]];
+      i = parent_[i];
+    }
+    return i;
+  }
+  void Join(int a, int b) { parent_[Find(a)] = Find(b); }
+
+ private:
+  std::vector<int> parent_;
+};
+
+// The blocks of images that share a similarity gauge: joined by the points
+// the solve refines, since a similarity of the world that moves such a point
+// has to move every image observing it alike. A point the solve holds joins
+// nothing: it is held only when all its observers' poses are held
+// (ChooseFreeParameters), so it never meets a refined pose and has no
+// freedom to share; joining through it would count the constant poses of
+// two blocks together and leave each block's scale free. (Were a held point
+// seen from a refined block, it still would not hold that block's gauge: a
+// similarity fixing one point keeps 4 of its 7 DoF.) Intrinsics join nothing
+// either: a similarity of the world leaves them as they are, so a camera
+// shared by two blocks ties none of their gauges.
+ImageComponents ConnectImages(const BundleProblem& problem) {
+  const int num_images = static_cast<int>(problem.images.size());
+  std::vector<char> point_refined(problem.points.size(), 0);
+  for (const BundleObservation& obs : problem.observations) {
+    if (!problem.images[obs.image].constant_pose) point_refined[obs.point] = 1;
+  }
+  ImageComponents components(num_images);
+  std::vector<int> first_observer(problem.points.size(), -1);
+  for (const BundleObservation& obs : problem.observations) {
+    if (!point_refined[obs.point]) continue;
+    int& first = first_observer[obs.point];
+    if (first < 0) {
+      first = obs.image;
+    } else {
+      components.Join(first, obs.image);
+    }
+  }
+  return components;
+}
+
+// Gauge::kMinimal per block of ConnectImages: the blocks move apart without
+// changing a residual, so each is free in its own 7 DoF and its constant
+// poses hold its gauge only. A block with two or more constant poses needs
+// nothing; one with a single constant pose is held by it but for scale about
+// its centre; one with none has its first image's pose held. Either of the
+// last two also holds, for scale, one translation component of another of
+// its images.
 GaugeChoice ChooseGauge(const BundleProblem& problem,
                         const std::vector<char>& observed,
                         BundleAdjuster::Options::Gauge gauge) {
   GaugeChoice choice;
   const int num_images = static_cast<int>(problem.images.size());
   choice.constant_pose.resize(num_images);
-  int num_constant = 0;
   for (int i = 0; i < num_images; ++i) {
     choice.constant_pose[i] = problem.images[i].constant_pose;
-    if (observed[i] && choice.constant_pose[i]) ++num_constant;
   }
-  if (gauge != BundleAdjuster::Options::Gauge::kMinimal || num_constant >= 2) {
-    return choice;
+  if (gauge != BundleAdjuster::Options::Gauge::kMinimal) return choice;
+
+  ImageComponents components = ConnectImages(problem);
+  // By component root: the observed constant poses, whether some observed
+  // pose is refined, and the anchor (the first constant pose, else the first
+  // observed image).
+  std::vector<int> root(num_images, -1);
+  std::vector<int> num_constant(num_images, 0);
+  std::vector<char> has_refined(num_images, 0);
+  std::vector<int> anchor(num_images, -1);
+  for (int i = 0; i < num_images; ++i) {
+    if (!observed[i]) continue;
+    const int r = root[i] = components.Find(i);
+    if (!choice.constant_pose[i]) {
+      has_refined[r] = 1;
+    } else if (num_constant[r]++ == 0) {
+      anchor[r] = i;
+    }
   }
-  int anchor = -1;
-  for (int i = 0; i < num_images && anchor < 0; ++i) {
-    if (observed[i] && choice.constant_pose[i]) anchor = i;
+  std::vector<char> needs_scale(num_images, 0);
+  for (int i = 0; i < num_images; ++i) {
+    if (!observed[i]) continue;
+    const int r = root[i];
+    if (!has_refined[r] || num_constant[r] >= 2) continue;
+    needs_scale[r] = 1;
+    if (anchor[r] < 0) {
+      anchor[r] = i;
+      choice.constant_pose[i] = true;
+    }
   }
-  for (int i = 0; i < num_images && anchor < 0; ++i) {
-    if (observed[i]) anchor = i;
-  }
-  if (anchor < 0) return choice;
-  choice.constant_pose[anchor] = true;
   // Scaling the world about the anchor's centre a moves t_i by
   // R_i (c_i - a) per unit of log-scale: hold the component it moves most.
-  const Eigen::Vector3d a = ProjectionCenter(problem.images[anchor].cam_from_world);
   for (int i = 0; i < num_images; ++i) {
     if (!observed[i] || choice.constant_pose[i]) continue;
+    const int r = root[i];
+    if (!needs_scale[r]) continue;
+    const Eigen::Vector3d a =
+        ProjectionCenter(problem.images[anchor[r]].cam_from_world);
     const Rigid3d& pose = problem.images[i].cam_from_world;
     const Eigen::Vector3d lever = pose.rotation * (ProjectionCenter(pose) - a);
     if (lever.norm() <= 1e-12 * (1.0 + a.norm())) continue;
-    choice.scale_image = i;
-    lever.cwiseAbs().maxCoeff(&choice.scale_axis);
-    break;
+    ScaleHold hold;
+    hold.image = i;
+    lever.cwiseAbs().maxCoeff(&hold.axis);
+    choice.scale_holds.push_back(hold);
+    needs_scale[r] = 0;
   }
   return choice;
 }
@@ -334,7 +418,8 @@ struct CeresProblem {
 
   const std::unique_ptr<ceres::LossFunction> loss;
   ceres::EigenQuaternionManifold quaternion_manifold;
-  std::unique_ptr<ceres::SubsetManifold> scale_manifold;
+  // By held axis, made when first needed; shared by the blocks holding it.
+  std::unique_ptr<ceres::SubsetManifold> scale_manifolds[3];
   std::vector<std::unique_ptr<ceres::SubsetManifold>> intrinsics_manifolds;
   const std::shared_ptr<ceres::ParameterBlockOrdering> ordering;
   ceres::Problem problem;
@@ -430,7 +515,7 @@ AddedResiduals AddReprojectionResiduals(const FreeParameters& free_parameters,
   return added;
 }
 
-// Refined poses on the quaternion manifold, the gauge's scale component held;
+// Refined poses on the quaternion manifold, the gauge's scale components held;
 // held pose blocks constant. Returns the number of refined poses.
 int SetPoseBlocks(const AddedResiduals& added, const GaugeChoice& gauge,
                   BundleProblem* problem, CeresProblem* ceres_problem) {
@@ -442,14 +527,18 @@ int SetPoseBlocks(const AddedResiduals& added, const GaugeChoice& gauge,
     Rigid3d& pose = problem->images[i].cam_from_world;
     ceres_problem->problem.SetManifold(pose.rotation.coeffs().data(),
                                        &ceres_problem->quaternion_manifold);
-    if (i == gauge.scale_image) {
-      ceres_problem->scale_manifold = std::make_unique<ceres::SubsetManifold>(
-          3, std::vector<int>{gauge.scale_axis});
-      ceres_problem->problem.SetManifold(pose.translation.data(),
-                                         ceres_problem->scale_manifold.get());
-    }
     ceres_problem->ordering->AddElementToGroup(pose.rotation.coeffs().data(), 1);
     ceres_problem->ordering->AddElementToGroup(pose.translation.data(), 1);
+  }
+  for (const ScaleHold& hold : gauge.scale_holds) {
+    if (!added.image_added[hold.image]) continue;
+    std::unique_ptr<ceres::SubsetManifold>& manifold =
+        ceres_problem->scale_manifolds[hold.axis];
+    if (manifold == nullptr) {
+      manifold = std::make_unique<ceres::SubsetManifold>(3, std::vector<int>{hold.axis});
+    }
+    ceres_problem->problem.SetManifold(
+        problem->images[hold.image].cam_from_world.translation.data(), manifold.get());
   }
   for (int i = 0; i < num_images; ++i) {
     if (!added.pose_block_held[i]) continue;

@@ -46,11 +46,13 @@ class BundleAdjuster {
     enum class Gauge {
       // Only the problem's constant poses (the caller's choice).
       kConstantPosesOnly,
-      // If no pose is constant, the first image's pose is held; if fewer than
-      // two are, one translation component of the first other image is held
-      // too (the one most sensitive to scale about the held camera): exactly
-      // 7 DoF, as COLMAP does. Adds nothing to a local block, whose outermost
-      // ripple and outside observers are constant already.
+      // Per block of images joined by refined points (disconnected blocks
+      // are each free in 7 DoF): if none of the block's poses is constant,
+      // its first image's pose is held; if fewer than two are, one
+      // translation component of its first other image is held too (the one
+      // most sensitive to scale about the held camera): exactly 7 DoF per
+      // block, as COLMAP does for one. Adds nothing to a local block, whose
+      // outermost ripple and outside observers are constant already.
       kMinimal,
     };
     Gauge gauge = Gauge::kMinimal;

@@ -1,8 +1,11 @@
 #include "bundle/bundle_adjuster.h"
 
+#include <algorithm>
 #include <cmath>
 #include <memory>
 #include <random>
+#include <tuple>
+#include <utility>
 #include <vector>
 
 // Ceres pulls in glog, whose CHECK would silently replace Catch's: include it
@@ -368,6 +371,142 @@ TEST_CASE("The minimal gauge holds the first pose and one translation axis") {
   // Noise-free: the solution is the truth scaled about the first camera so
   // that the held component keeps its perturbed value; it reprojects exactly.
   CHECK(RmsReprojectionError(problem) < 1e-6);
+}
+
+// The block in another similarity frame, world x' = s R x + t: each camera
+// frame scales by s, so the pixels stay as they are.
+BundleProblem InFrame(BundleProblem block, double s, const Eigen::Quaterniond& r,
+                      const Eigen::Vector3d& t) {
+  for (Eigen::Vector3d& point : block.points) point = s * (r * point) + t;
+  for (BundleImage& image : block.images) {
+    Rigid3d& pose = image.cam_from_world;
+    pose.rotation = (pose.rotation * r.conjugate()).normalized();
+    pose.translation = s * pose.translation - pose.rotation * t;
+  }
+  return block;
+}
+
+// `block` after what `problem` holds, its indices shifted past it.
+void AppendBlock(const BundleProblem& block, BundleProblem* problem) {
+  const int num_cameras = static_cast<int>(problem->cameras.size());
+  const int num_images = static_cast<int>(problem->images.size());
+  const int num_points = static_cast<int>(problem->points.size());
+  problem->cameras.insert(problem->cameras.end(), block.cameras.begin(),
+                          block.cameras.end());
+  for (BundleImage image : block.images) {
+    image.camera += num_cameras;
+    problem->images.push_back(image);
+  }
+  problem->points.insert(problem->points.end(), block.points.begin(), block.points.end());
+  for (BundleObservation obs : block.observations) {
+    obs.image += num_images;
+    obs.point += num_points;
+    problem->observations.push_back(obs);
+  }
+}
+
+// RMS per image axis of the observations [begin, end).
+double RmsOf(const std::vector<double>& errors, size_t begin, size_t end) {
+  double sum = 0;
+  for (size_t o = begin; o < end; ++o) sum += errors[o] * errors[o];
+  return std::sqrt(sum / (2.0 * (end - begin)));
+}
+
+// The translation axis the minimal gauge holds for scale in `image`: the
+// one scaling about `anchor`'s centre moves most.
+Eigen::Index ScaleAxis(const Rigid3d& image, const Rigid3d& anchor) {
+  Eigen::Index axis;
+  (image.rotation * (ProjectionCenter(image) - ProjectionCenter(anchor)))
+      .cwiseAbs()
+      .maxCoeff(&axis);
+  return axis;
+}
+
+TEST_CASE("The minimal gauge holds each disconnected block in its own frame") {
+  // Two blocks with nothing in common (cameras, points, observers), the
+  // second in a frame scaled by 3, turned and moved: one global BA over both.
+  testing::SyntheticSceneOptions scene_options;
+  scene_options.num_images = 10;
+  scene_options.num_points = 300;
+  scene_options.noise_px = kNoisePx;
+  scene_options.seed = 7;
+  BundleProblem first = BundleProblemFromScene(testing::MakeSyntheticScene(scene_options));
+  Perturb(8, 1, &first);
+  scene_options.seed = 9;
+  scene_options.camera = Camera::FromFocal(CameraModelId::kSimpleRadial, 600, 800, 600);
+  BundleProblem second = BundleProblemFromScene(testing::MakeSyntheticScene(scene_options));
+  Perturb(10, 1, &second);
+  std::mt19937 rng(11);
+  second = InFrame(second, 3.0, testing::RandomRotation(rng), Eigen::Vector3d(20, -5, 8));
+  // Held, the second block's third pose takes the place of its first as the
+  // anchor; the scale is still free about it.
+  const bool second_has_constant_pose = GENERATE(false, true);
+  const int second_anchor = second_has_constant_pose ? 2 : 0;
+  const int second_scale_image = second_has_constant_pose ? 0 : 1;
+  second.images[second_anchor].constant_pose = second_has_constant_pose;
+
+  BundleProblem both = first;
+  AppendBlock(second, &both);
+  const int n = static_cast<int>(first.images.size());
+  const size_t first_observations = first.observations.size();
+  const BundleProblem start = both;
+
+  // Least squares, so that the residuals at the minimum follow from the noise
+  // alone; tight tolerances, so that each solve ends at its minimum.
+  BundleAdjuster::Options options;
+  options.loss = BundleAdjuster::Options::Loss::kTrivial;
+  options.function_tolerance = 1e-12;
+  options.parameter_tolerance = 1e-12;
+  const BundleAdjuster adjuster(options);
+  const BundleAdjuster::Summary summary = adjuster.Solve(&both);
+  INFO(summary.BriefReport());
+  REQUIRE(summary.termination == BundleAdjuster::Termination::kConvergence);
+  // One pose held per block, the caller's or the gauge's.
+  CHECK(summary.num_free_images == 18);
+
+  // Each block's anchor exactly as it was, and the scale component of another
+  // of its images.
+  for (const auto& [anchor, scale_image] :
+       {std::pair{0, 1}, std::pair{n + second_anchor, n + second_scale_image}}) {
+    INFO("anchor " << anchor << ", scale image " << scale_image);
+    const Rigid3d& held = both.images[anchor].cam_from_world;
+    CHECK(held.rotation.coeffs() == start.images[anchor].cam_from_world.rotation.coeffs());
+    CHECK(held.translation == start.images[anchor].cam_from_world.translation);
+    const Rigid3d& before = start.images[scale_image].cam_from_world;
+    const Rigid3d& after = both.images[scale_image].cam_from_world;
+    const Eigen::Index axis = ScaleAxis(before, start.images[anchor].cam_from_world);
+    CHECK(after.translation[axis] == before.translation[axis]);
+    // The rest of that pose is refined.
+    CHECK(after.rotation.angularDistance(before.rotation) > 1e-4);
+  }
+
+  // Each block alone: the same start and the same gauge, so the same
+  // minimum.
+  REQUIRE(adjuster.Solve(&first).termination == BundleAdjuster::Termination::kConvergence);
+  REQUIRE(adjuster.Solve(&second).termination == BundleAdjuster::Termination::kConvergence);
+  const std::vector<double> errors = ReprojectionErrors(both);
+  for (const auto& [block, begin, end] :
+       {std::tuple{&first, size_t{0}, first_observations},
+        std::tuple{&second, first_observations, errors.size()}}) {
+    // At the least-squares minimum the residual RMS per axis is
+    // sigma sqrt(1 - p / m), p the block's parameters less its 7 gauge DoF,
+    // m = 2N its residuals; over noise draws it spreads by sigma / (2 sqrt N).
+    const double num_observations = double(end - begin);
+    std::vector<char> point_observed(block->points.size(), 0);
+    for (const BundleObservation& obs : block->observations) point_observed[obs.point] = 1;
+    const double num_parameters =
+        6.0 * block->images.size() +
+        3.0 * std::count(point_observed.begin(), point_observed.end(), 1) - 7;
+    const double floor = kNoisePx * std::sqrt(1 - num_parameters / (2 * num_observations));
+    const double spread = kNoisePx / (2 * std::sqrt(num_observations));
+    const double joint_rms = RmsOf(errors, begin, end);
+    const double alone_rms = RmsReprojectionError(*block);
+    INFO("joint " << joint_rms << " px, alone " << alone_rms << " px, floor " << floor
+                  << " px, spread " << spread << " px");
+    CHECK(std::abs(joint_rms - floor) < 3 * spread);
+    // The same minimum: far closer than the noise could tell apart.
+    CHECK(std::abs(joint_rms - alone_rms) < 1e-3 * spread);
+  }
 }
 
 TEST_CASE("Dense, sparse and iterative Schur reach the same minimum") {
