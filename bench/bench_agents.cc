@@ -1,8 +1,9 @@
-// Does every shot get a pose when it arrives? The engine keeps one model: a
-// shot that does not connect to it waits in the pending pool, without a
-// pose, until a later shot bridges the gap. This benchmark measures that on
-// rendered captures of bench_photos' building (exact ground truth), the
-// baseline for an engine whose sub-models grow apart and merge live:
+// Does every shot get a pose when it arrives? A shot that does not connect
+// to the model starts a sub-model with a waiting shot it pairs with, and the
+// sub-models merge when a later shot links them (Engine, SubModelOptions);
+// with sub-models off (--no-sub-models) it waits in the pending pool, without
+// a pose, until a later shot bridges the gap. This benchmark measures that on
+// rendered captures of bench_photos' building (exact ground truth):
 //
 //   ring     one photographer walks a ring of shots around the building, one
 //            step of which is a gap (--gap-deg, 60 by default, across the
@@ -15,7 +16,8 @@
 //            way round: each comes near where the other started only
 //            at the end of its walk.
 //
-//   bench_agents [--scenarios ring,agents,two] [--photos N] [--gap-deg D]
+//   bench_agents [--scenarios ring,agents,two] [--engines sub-models,one-model]
+//                [--photos N] [--gap-deg D]
 //                [--megapixels MP] [--seed S] [--supersampling K] [--work DIR]
 //                [--glibc-malloc-defaults]
 //
@@ -28,10 +30,11 @@
 // call); how many at the end (after Finish); the longest stretch of
 // consecutive shots without a pose at arrival; the same per photographer;
 // the camera-centre RMSE after Sim3 of the final model and of the poses as
-// they were at arrival; how many poses are wrong (a centre off by more than
-// 5 % of the scene, the largest distance between two true camera centres);
-// the per-shot time of all stages; and the number of models (the engine
-// has one and no count of them). Ends with one line of JSON.
+// they were at arrival (each sub-model aligned on its own, in the frame it had
+// then); how many poses are wrong (a centre off by more than 5 % of the
+// scene, the largest distance between two true camera centres); the
+// per-shot time of all stages; and the number of sub-models at the end.
+// Ends with one line of JSON.
 
 #include <unistd.h>
 
@@ -73,6 +76,9 @@ struct Flags {
   int supersampling = 1;
   std::string work;
   bool glibc_malloc_defaults = false;
+  // Each scenario runs on each: the engine with sub-models, and with one
+  // model (SubModelOptions::enabled false), the figure it improves on.
+  std::vector<std::string> engines = {"sub-models", "one-model"};
 };
 
 // The south-east corner's direction from the building's centre (16 m x
@@ -284,17 +290,39 @@ void PrintCounts(const char* label, const Counts& counts) {
               1000 * counts.rmse_at_end_m, 1000 * counts.rmse_at_arrival_m);
 }
 
-// Each shot's centre error after the Sim3 that `errors` found.
-void SetErrors(const std::optional<PositionErrors>& errors,
-               const std::map<std::string, Eigen::Vector3d>& estimated,
-               const std::map<std::string, Eigen::Vector3d>& truth,
-               std::optional<double> ShotOutcome::*error, std::vector<ShotOutcome>* shots) {
-  if (!errors) return;
-  for (ShotOutcome& shot : *shots) {
-    const auto it = estimated.find(shot.name);
-    if (it == estimated.end()) continue;
-    shot.*error = (errors->reference_from_estimate * it->second - truth.at(shot.name)).norm();
+// A shot's camera centre and the sub-model whose frame it is in.
+struct PosedCentre {
+  model_t model_id = kInvalidModelId;
+  Eigen::Vector3d centre;
+};
+
+// Each shot's centre error after the Sim3 of its sub-model's centres onto
+// the truth (a sub-model keeps its frame until it merges into another, whose
+// frame then holds both); a sub-model of fewer than three shots fixes no Sim3
+// and gives no errors. Returns the shots compared.
+int SetErrors(const std::map<std::string, PosedCentre>& estimated,
+              const std::map<std::string, Eigen::Vector3d>& truth,
+              std::optional<double> ShotOutcome::*error, std::vector<ShotOutcome>* shots) {
+  std::map<model_t, std::vector<std::string>> names_of;
+  for (const auto& [name, posed] : estimated) names_of[posed.model_id].push_back(name);
+  int compared = 0;
+  for (const auto& [model_id, names] : names_of) {
+    std::vector<Eigen::Vector3d> centres, reference;
+    for (const std::string& name : names) {
+      centres.push_back(estimated.at(name).centre);
+      reference.push_back(truth.at(name));
+    }
+    const std::optional<PositionErrors> errors = ComparePositionsAfterSim3(centres, reference);
+    if (!errors) continue;
+    compared += errors->num_compared;
+    for (ShotOutcome& shot : *shots) {
+      const auto it = estimated.find(shot.name);
+      if (it == estimated.end() || it->second.model_id != model_id) continue;
+      shot.*error =
+          (errors->reference_from_estimate * it->second.centre - truth.at(shot.name)).norm();
+    }
   }
+  return compared;
 }
 
 double SceneSize(const std::map<std::string, Eigen::Vector3d>& truth) {
@@ -306,7 +334,7 @@ double SceneSize(const std::map<std::string, Eigen::Vector3d>& truth) {
 }
 
 nlohmann::json RunScenario(const Flags& flags, const fs::path& work, const Scenario& scenario,
-                           const std::string& camera_text) {
+                           const std::string& engine_name, const std::string& camera_text) {
   const int width = PhotoWidth(flags.megapixels);
   const Camera camera = Camera::FromString(camera_text, width, width * 2 / 3);
   // Render, and gather each photographer's frames and the truth.
@@ -344,11 +372,13 @@ nlohmann::json RunScenario(const Flags& flags, const fs::path& work, const Scena
   merge.order = MergedSourceOptions::Order::kCaptureTime;
   MergedSource source(inputs, merge);
 
-  std::printf("\n%s: %zu photographer%s, %zu shots\n", scenario.name.c_str(),
-              scenario.photographers.size(), scenario.photographers.size() > 1 ? "s" : "",
-              truth.size());
+  std::printf("\n%s, %s: %zu photographer%s, %zu shots\n", scenario.name.c_str(),
+              engine_name.c_str(), scenario.photographers.size(),
+              scenario.photographers.size() > 1 ? "s" : "", truth.size());
   std::fflush(stdout);
-  Engine engine(Engine::Options(), Camera::FromString(camera_text, 0, 0));
+  Engine::Options engine_options;
+  engine_options.sub_models.enabled = engine_name == "sub-models";
+  Engine engine(engine_options, Camera::FromString(camera_text, 0, 0));
   bench::SessionOptions options;
   options.run.print = false;
   options.run.between_images = RunLoop::Options::BetweenImages::kNothing;
@@ -357,11 +387,17 @@ nlohmann::json RunScenario(const Flags& flags, const fs::path& work, const Scena
   options.on_image = [&](const Engine&, const std::vector<ImageResult>& out,
                          const StageTimes& times, double engine_ms) {
     // The engine call's other results are waiting shots it let register.
+    const std::string model =
+        out.front().model_id == kInvalidModelId ? "" : " in " + std::to_string(out.front().model_id);
+    const std::string merged = out.front().num_merged_models > 0
+                                   ? ", merged " + std::to_string(out.front().num_merged_models)
+                                   : "";
     std::printf("[%4d] %-22s %-10s all stages %6.0f ms, engine %6.0f ms, %2d/%2d pairs, "
-                "model %d img, %zu waiting registered with it\n",
+                "model %d img in %d sub-model(s)%s%s, %zu waiting registered with it\n",
                 ++index, out.front().name.c_str(), ImageStatusName(out.front().status),
                 times.total, engine_ms, out.front().num_verified_pairs,
-                out.front().num_candidates, out.back().model_images, out.size() - 1);
+                out.front().num_candidates, out.back().model_images, out.back().num_models,
+                model.c_str(), merged.c_str(), out.size() - 1);
     std::fflush(stdout);
   };
   const bench::Session session = bench::RunSession(&engine, &source, options);
@@ -377,52 +413,42 @@ nlohmann::json RunScenario(const Flags& flags, const fs::path& work, const Scena
     shot_index[shot.name] = shots.size();
     shots.push_back(shot);
   }
-  std::map<std::string, Eigen::Vector3d> at_arrival;
+  std::map<std::string, PosedCentre> at_arrival;
   for (const RunLoop::Reported& reported : session.run.results) {
     if (!reported.arriving_image || reported.result.status != ImageStatus::kRegistered) continue;
     ShotOutcome& shot = shots.at(shot_index.at(reported.result.name));
     shot.posed_at_arrival = true;
-    at_arrival[shot.name] = ProjectionCenter(*reported.result.cam_from_world);
+    at_arrival[shot.name] = {reported.result.model_id,
+                             ProjectionCenter(*reported.result.cam_from_world)};
   }
   const Reconstruction& model = engine.reconstruction();
-  std::map<std::string, Eigen::Vector3d> at_end;
+  std::map<std::string, PosedCentre> at_end;
   for (const auto& [id, image] : model.images()) {
     if (!image.IsRegistered() || !shot_index.count(image.name)) continue;
     shots[shot_index.at(image.name)].posed_at_end = true;
-    at_end[image.name] = ProjectionCenter(*image.cam_from_world);
+    at_end[image.name] = {image.model_id, ProjectionCenter(*image.cam_from_world)};
   }
-  // The final model's centres through the project's evaluation; the poses
-  // at arrival (one model today, so one frame) aligned the same way.
-  const std::optional<PositionErrors> end_errors = CompareCentersByName(model, truth);
-  std::vector<Eigen::Vector3d> estimated, reference;
-  for (const auto& [name, centre] : at_arrival) {
-    estimated.push_back(centre);
-    reference.push_back(truth.at(name));
-  }
-  const std::optional<PositionErrors> arrival_errors =
-      ComparePositionsAfterSim3(estimated, reference);
-  SetErrors(end_errors, at_end, truth, &ShotOutcome::error_at_end_m, &shots);
-  SetErrors(arrival_errors, at_arrival, truth, &ShotOutcome::error_at_arrival_m, &shots);
+  const int compared_at_end = SetErrors(at_end, truth, &ShotOutcome::error_at_end_m, &shots);
+  SetErrors(at_arrival, truth, &ShotOutcome::error_at_arrival_m, &shots);
 
   const double scene_size = SceneSize(truth);
   const double wrong_m = 0.05 * scene_size;
   std::vector<const ShotOutcome*> all;
   for (const ShotOutcome& shot : shots) all.push_back(&shot);
   const Counts counts = Count(all, wrong_m);
-  // The engine keeps one model and has no count of models to read.
-  const int models = 1;
+  const int models = int(model.Models().size());
   const double median_ms = Median(session.all_stages_ms);
 
   std::printf("\n%s: %d shots, %d posed at arrival, %d at the end (%zu in the model, %zu "
               "pending); longest stretch without a pose at arrival %d; wrong (centre off by "
               "more than 5 %% of the scene, %.2f m of %.1f m) at arrival %d, at the end %d; "
               "centre RMSE after Sim3 %.2f mm at the end (%d compared), %.2f mm at arrival; "
-              "all stages median %.0f ms per shot; models %d (the engine keeps one)\n",
+              "all stages median %.0f ms per shot; sub-models at the end %d\n",
               scenario.name.c_str(), counts.shots, counts.posed_at_arrival, counts.posed_at_end,
               model.NumRegisteredImages(), engine.PendingImageNames().size(),
               counts.longest_unposed, wrong_m, scene_size, counts.wrong_at_arrival,
               counts.wrong_at_end, 1000 * counts.rmse_at_end_m,
-              end_errors ? end_errors->num_compared : 0, 1000 * counts.rmse_at_arrival_m,
+              compared_at_end, 1000 * counts.rmse_at_arrival_m,
               median_ms, models);
   nlohmann::json sources = nlohmann::json::array();
   for (const Photographer& walker : scenario.photographers) {
@@ -452,12 +478,12 @@ nlohmann::json RunScenario(const Flags& flags, const fs::path& work, const Scena
   }
   nlohmann::json json = CountsJson(counts);
   json.update({{"scenario", scenario.name},
+               {"engine", engine_name},
                {"photographers", scenario.photographers.size()},
                {"models", models},
-               {"models_read_from_engine", false},
                {"scene_size_m", scene_size},
                {"wrong_threshold_m", wrong_m},
-               {"compared_at_end", end_errors ? end_errors->num_compared : 0},
+               {"compared_at_end", compared_at_end},
                {"all_stages_median_ms", median_ms},
                {"sources", sources},
                {"shot_outcomes", shot_list},
@@ -498,14 +524,18 @@ int Main(const Flags& flags) {
   }
   nlohmann::json runs = nlohmann::json::array();
   for (const Scenario& scenario : scenarios) {
-    runs.push_back(RunScenario(flags, work, scenario, camera_text));
+    for (const std::string& engine_name : flags.engines) {
+      runs.push_back(RunScenario(flags, work, scenario, engine_name, camera_text));
+    }
   }
 
-  std::printf("\n%-14s %6s %10s %8s %10s %6s %17s %10s %7s\n", "run", "shots", "at arrival",
-              "at end", "longest", "wrong", "centre RMSE (mm)", "median", "models");
+  std::printf("\n%-14s %-10s %6s %10s %8s %10s %6s %17s %10s %7s\n", "run", "engine", "shots",
+              "at arrival", "at end", "longest", "wrong", "centre RMSE (mm)", "median",
+              "models");
   for (const nlohmann::json& run : runs) {
-    std::printf("%-14s %6d %10d %8d %10d %3d/%-2d %8.2f (%5.2f) %7.0f ms %7d\n",
-                run["scenario"].get<std::string>().c_str(), run["shots"].get<int>(),
+    std::printf("%-14s %-10s %6d %10d %8d %10d %3d/%-2d %8.2f (%5.2f) %7.0f ms %7d\n",
+                run["scenario"].get<std::string>().c_str(),
+                run["engine"].get<std::string>().c_str(), run["shots"].get<int>(),
                 run["posed_at_arrival"].get<int>(), run["posed_at_end"].get<int>(),
                 run["longest_unposed_at_arrival"].get<int>(), run["wrong_at_arrival"].get<int>(),
                 run["wrong_at_end"].get<int>(), 1000 * run["center_rmse_m"].get<double>(),
@@ -514,7 +544,7 @@ int Main(const Flags& flags) {
   }
   std::printf("(posed at arrival and at the end; longest stretch without a pose at arrival; "
               "wrong at arrival/at the end; centre RMSE at the end (at arrival); all stages "
-              "median per shot; models: the engine keeps one and has no count)\n");
+              "median per shot; sub-models at the end)\n");
   const nlohmann::json json = {{"bench", "agents"},
                                {"width", camera.width},
                                {"height", camera.height},
@@ -540,6 +570,11 @@ int main(int argc, char** argv) {
   app.add_option("--scenarios", flags.scenarios, "Any of ring, agents, two")
       ->delimiter(',')
       ->check(CLI::IsMember({"ring", "agents", "two"}))
+      ->capture_default_str();
+  app.add_option("--engines", flags.engines,
+                 "Any of sub-models, one-model (sub-models off); each scenario runs on each")
+      ->delimiter(',')
+      ->check(CLI::IsMember({"sub-models", "one-model"}))
       ->capture_default_str();
   app.add_option("--photos", flags.num_photos,
                  "Shots of the ring (their step is every walk's)")

@@ -64,6 +64,7 @@ bool Engine::Options::Check(std::string* problem) const {
       {self_calibration_converged_change >= 0, "self_calibration_converged_change (>= 0)"},
       {self_calibration_max_observations >= 1, "self_calibration_max_observations (>= 1)"},
       {self_calibration_min_iterations >= 1, "self_calibration_min_iterations (>= 1)"},
+      {sub_models.Check(), "sub_models"},
       {refinement.Check(), "refinement"},
       {finishing.Check(), "finishing"},
   };
@@ -224,7 +225,9 @@ std::vector<ImageResult> Engine::AddPreparedImage(PreparedFrame prepared) {
     Initialize(&results[0]);
   } else {
     pending_.MarkTried(image_id, NumRegisteredNeighbours(image_id));
-    RegisterAndExtend(image_id, &results[0]);
+    if (!RegisterAndExtend(image_id, &results[0]) && options_.sub_models.enabled) {
+      Initialize(&results[0], image_id);
+    }
   }
 
   // 11. Each image that registered may let waiting ones register too.
@@ -300,22 +303,27 @@ void Engine::VerifyPairs(image_t image_id, const std::vector<RetrievalCandidate>
     result->num_lsm_rejected += pair.num_lsm_rejected;
     if (!pair.verified()) continue;
     ++result->num_verified_pairs;
-    if (!initialized_) {
+    // Once the model exists, a pair of waiting images may start a sub-model.
+    if (!initialized_ ||
+        (options_.sub_models.enabled && !reconstruction_.image(other_id).IsRegistered())) {
       initializer_.AddPair(image_id, other_id, pair.geometry, known_camera_.has_value());
     }
     matches_.SetMatches(image_id, other_id, std::move(pair.matches));
   }
 }
 
-bool Engine::Initialize(ImageResult* result) {
+bool Engine::Initialize(ImageResult* result, image_t image_id) {
   std::vector<InitialPair> pairs;
   {
     ScopedStageTimer timer(&result->times.registration);
+    if (initialized_) initializer_.ForgetRegistered(reconstruction_);
     // A guessed focal length far off distorts every pose E gives (fountain-
     // P11 from a guess 2.8 times too long: 44 mm instead of 2 mm): the one
     // the pairs' F agree on replaces it, and the poses follow.
+    // A model exists: its images hold the focal length to their poses.
     bool corrected = false;
     for (const auto& [camera_id, calm] : self_calibrating_) {
+      if (initialized_) break;
       double focal_length = 0;
       if (initializer_.CorrectFocalLength(reconstruction_, camera_id, &focal_length) == 1) {
         reconstruction_.camera(camera_id).SetFocalLength(focal_length);
@@ -327,21 +335,28 @@ bool Engine::Initialize(ImageResult* result) {
       reconstruction_.MarkCamerasChanged();
       initializer_.RecomputePoses(reconstruction_, matches_);
     }
-    pairs = initializer_.RankPairs(reconstruction_, matches_);
+    pairs = initializer_.RankPairs(reconstruction_, matches_, image_id);
   }
+  const model_t model_id =
+      initialized_ ? reconstruction_.NewModelId() : Reconstruction::kFirstModelId;
   for (const InitialPair& pair : pairs) {
     // A pair that fails must leave no trace, its BA's intrinsics included:
     // every image of the same size shares the camera.
     const std::map<camera_t, Camera> cameras = reconstruction_.cameras();
     {
       ScopedStageTimer timer(&result->times.registration);
-      reconstruction_.RegisterImage(pair.image_id1, Rigid3d());
-      reconstruction_.RegisterImage(pair.image_id2, pair.cam2_from_cam1);
+      reconstruction_.RegisterImage(pair.image_id1, Rigid3d(), model_id);
+      reconstruction_.RegisterImage(pair.image_id2, pair.cam2_from_cam1, model_id);
     }
     TriangulateAndAdjust(pair.image_id2, result);
-    if (int(reconstruction_.NumPoints3D()) >= options_.initialization.min_num_points) {
+    if (reconstruction_.image(pair.image_id2).num_points3D >=
+        options_.initialization.min_num_points) {
       initialized_ = true;
-      initializer_.Clear();
+      if (options_.sub_models.enabled) {
+        initializer_.ForgetRegistered(reconstruction_);
+      } else {
+        initializer_.Clear();
+      }
       return true;
     }
     ScopedStageTimer timer(&result->times.registration);
@@ -364,7 +379,67 @@ bool Engine::RegisterAndExtend(image_t image_id, ImageResult* result) {
     return false;
   }
   TriangulateAndAdjust(image_id, result);
+  LinkSubModels(image_id, result);
   return true;
+}
+
+void Engine::LinkSubModels(image_t image_id, ImageResult* result) {
+  const auto reaches_another = [&] {
+    const model_t own_id = reconstruction_.image(image_id).model_id;
+    const std::vector<image_t> neighbours = matches_.Neighbours(image_id);
+    return std::any_of(neighbours.begin(), neighbours.end(), [&](image_t other_id) {
+      const Image& other = reconstruction_.image(other_id);
+      return other.IsRegistered() && other.model_id != own_id;
+    });
+  };
+  if (!options_.sub_models.enabled || !reaches_another()) return;
+  ScopedStageTimer timer(&result->times.merge);
+  // Each merge changes the correspondences: they are found again.
+  for (bool merged = true; merged;) {
+    merged = false;
+    const model_t own_id = reconstruction_.image(image_id).model_id;
+    for (const auto& [other_id, correspondences] :
+         Find2D3DCorrespondences(reconstruction_, matches_, image_id)) {
+      if (other_id == own_id) continue;
+      std::optional<SubModelView> view = PoseInSubModel(
+          reconstruction_, image_id, other_id, correspondences, options_.sub_models);
+      if (!view) continue;
+      // The evidence of earlier shots between the two stays while their
+      // shots stay where they registered.
+      const std::pair<model_t, model_t> key = std::minmax(own_id, other_id);
+      std::vector<SubModelView>& views = link_views_[key];
+      views.erase(std::remove_if(views.begin(), views.end(),
+                                 [&](const SubModelView& earlier) {
+                                   const Image& shot = reconstruction_.image(earlier.image_id);
+                                   return earlier.image_id == image_id ||
+                                          shot.model_id != earlier.registered_in;
+                                 }),
+                  views.end());
+      views.insert(views.begin(), std::move(*view));
+      const std::optional<SubModelLink> link =
+          FindSubModelLink(reconstruction_, views, options_.sub_models);
+      if (!link) continue;
+      const SubModelMerge merge = MergeSubModels(*link, &reconstruction_);
+      const model_t gone = merge.model_id == own_id ? other_id : own_id;
+      for (auto it = link_views_.begin(); it != link_views_.end();) {
+        it = it->first.first == gone || it->first.second == gone ? link_views_.erase(it)
+                                                                 : std::next(it);
+      }
+      reconstruction_.FilterPoints3D(merge.fused_points, options_.filter_max_error_px,
+                                     options_.filter_min_tri_angle_deg);
+      ++result->num_merged_models;
+      merged = true;
+      break;
+    }
+  }
+  if (result->num_merged_models == 0) return;
+  // The seam: the shot's tracks continue into the merged images, and the
+  // local BA settles them; refinement's global BA follows between shots.
+  // Its stage times lie in the merge's.
+  ImageResult seam;
+  TriangulateAndAdjust(image_id, &seam);
+  result->num_merged_points += seam.num_merged_points;
+  refinement_.adjust = true;
 }
 
 void Engine::TriangulateAndAdjust(image_t image_id, ImageResult* result) {
@@ -506,8 +581,11 @@ int Engine::NumRegisteredNeighbours(image_t image_id) const {
 std::vector<int> Engine::RetrievalNeighbours(image_t image_id, int n) const {
   std::vector<int> neighbours;
   // Pending images are interleaved in the ranking: ask for more.
+  // A local BA stays in the image's sub-model.
+  const model_t model_id = reconstruction_.image(image_id).model_id;
   for (const RetrievalCandidate& candidate : retriever_.QueryInserted(image_id, 3 * n)) {
-    if (reconstruction_.image(candidate.image_id).IsRegistered()) {
+    const Image& candidate_image = reconstruction_.image(candidate.image_id);
+    if (candidate_image.IsRegistered() && candidate_image.model_id == model_id) {
       neighbours.push_back(int(candidate.image_id));
       if (int(neighbours.size()) == n) break;
     }
@@ -613,12 +691,14 @@ void Engine::Finalize(ImageResult* result) const {
   result->times.UpdateTotal();
   result->model_images = int(reconstruction_.NumRegisteredImages());
   result->model_points = int(reconstruction_.NumPoints3D());
+  result->num_models = int(reconstruction_.Models().size());
   if (result->image_id == kInvalidImageId) return;
   const Image& image = reconstruction_.image(result->image_id);
   if (image.IsRegistered()) {
     result->status = ImageStatus::kRegistered;
     result->reason.clear();
     result->cam_from_world = image.cam_from_world;
+    result->model_id = image.model_id;
     result->num_observations = image.num_points3D;
   }
 }

@@ -33,6 +33,7 @@
 #include "core/scene/reconstruction.h"
 #include "core/registration.h"
 #include "core/scene_bundle.h"
+#include "core/sub_models.h"
 #include "core/triangulator.h"
 #include "matching/features.h"
 #include "matching/image_decode.h"
@@ -196,6 +197,13 @@ class Engine {
       bool Check() const;
     };
     Refinement refinement;
+
+    // Sub-models (docs/engine.md, "Sub-models"): a shot that fits no model
+    // starts one of its own with a waiting shot it forms an initial pair
+    // with, instead of waiting without a pose; a later shot registered in one
+    // sub-model whose matches reach another's points links the two, and the
+    // smaller is merged into the larger.
+    SubModelOptions sub_models;
 
     // The end of a run (Finish): what refinement between images left undone,
     // bounded. A run that was refined to its end between images (live
@@ -386,8 +394,12 @@ class Engine {
   // exists) the pairs' geometry to the initializer.
   void VerifyPairs(image_t image_id, const std::vector<RetrievalCandidate>& candidates,
                    ImageResult* result);
-  // Step 6: the best remembered pair starts the model.
-  bool Initialize(ImageResult* result);
+  // Step 6: the best remembered pair starts the model; once it exists, the
+  // best pair of `image_id` with a waiting image starts a sub-model.
+  bool Initialize(ImageResult* result, image_t image_id = kInvalidImageId);
+  // Step 10c: the sub-models the registered `image_id` links to its own are
+  // merged with it.
+  void LinkSubModels(image_t image_id, ImageResult* result);
   // Steps 7-10 for an image that may register now.
   bool RegisterAndExtend(image_t image_id, ImageResult* result);
   // Steps 8-10 once `image_id` is registered.
@@ -437,6 +449,9 @@ class Engine {
   std::unordered_map<image_t, std::filesystem::path> image_files_;
   std::map<std::tuple<int, int, std::string>, camera_t> camera_by_identity_;
   bool initialized_ = false;
+  // Shots posed in two sub-models, by the pair of sub-models (the lower id
+  // first): a link's evidence as it gathers (LinkSubModels).
+  std::map<std::pair<model_t, model_t>, std::vector<SubModelView>> link_views_;
   int num_rejected_ = 0;
   // The engine's own time in AddImage and Refine: what bounds the end.
   double work_seconds_ = 0;

@@ -72,10 +72,28 @@ void Initializer::RecomputePoses(const Reconstruction& reconstruction,
   pairs_ = std::move(kept);
 }
 
+void Initializer::ForgetRegistered(const Reconstruction& reconstruction) {
+  pairs_.erase(std::remove_if(pairs_.begin(), pairs_.end(),
+                              [&](const Candidate& candidate) {
+                                return reconstruction.image(candidate.image_id1).IsRegistered() ||
+                                       reconstruction.image(candidate.image_id2).IsRegistered();
+                              }),
+               pairs_.end());
+}
+
 std::vector<InitialPair> Initializer::RankPairs(const Reconstruction& reconstruction,
-                                                const MatchStore& matches) const {
+                                                const MatchStore& matches,
+                                                image_t image_id) const {
   std::vector<InitialPair> ranked;
   for (const Candidate& candidate : pairs_) {
+    if (image_id != kInvalidImageId && candidate.image_id1 != image_id &&
+        candidate.image_id2 != image_id) {
+      continue;
+    }
+    if (reconstruction.image(candidate.image_id1).IsRegistered() ||
+        reconstruction.image(candidate.image_id2).IsRegistered()) {
+      continue;
+    }
     const std::vector<FeatureMatch> verified =
         matches.Matches(candidate.image_id1, candidate.image_id2);
     if (int(verified.size()) < options_.min_num_inliers) continue;

@@ -79,8 +79,12 @@ class Initializer {
   // The remembered pairs that qualify, most well-triangulated points first.
   // Keypoints and cameras are read as they are now (after LSM refinement);
   // the matches are the pairs' verified ones in `matches`.
+  // With `image_id`, only its pairs. Pairs of registered images are left out.
   std::vector<InitialPair> RankPairs(const Reconstruction& reconstruction,
-                                     const MatchStore& matches) const;
+                                     const MatchStore& matches,
+                                     image_t image_id = kInvalidImageId) const;
+  // Pairs with a registered image can start nothing any more.
+  void ForgetRegistered(const Reconstruction& reconstruction);
 
   // A pair that failed to start a model is not tried again.
   void Discard(const InitialPair& pair);

@@ -9,33 +9,37 @@
 
 namespace flysfm {
 
-std::vector<Correspondence2D3D> Find2D3DCorrespondences(const Reconstruction& reconstruction,
-                                                        const MatchStore& matches,
-                                                        image_t image_id) {
+std::map<model_t, std::vector<Correspondence2D3D>> Find2D3DCorrespondences(
+    const Reconstruction& reconstruction, const MatchStore& matches, image_t image_id) {
   const Image& image = reconstruction.image(image_id);
-  std::map<point2D_t, std::map<point3D_t, int>> votes;
+  std::map<model_t, std::map<point2D_t, std::map<point3D_t, int>>> votes;
   for (const image_t other_id : matches.Neighbours(image_id)) {
     const Image& other = reconstruction.image(other_id);
     if (!other.IsRegistered()) continue;
+    auto& model_votes = votes[other.model_id];
     for (const FeatureMatch& match : matches.Matches(image_id, other_id)) {
       const point3D_t point3D_id = other.points2D[match.idx2].point3D_id;
-      if (point3D_id != kInvalidPoint3DId) ++votes[point2D_t(match.idx1)][point3D_id];
+      if (point3D_id != kInvalidPoint3DId) ++model_votes[point2D_t(match.idx1)][point3D_id];
     }
   }
-  std::map<point3D_t, std::pair<int, point2D_t>> owner;
-  for (const auto& [point2D_idx, counts] : votes) {
-    const auto best = std::max_element(
-        counts.begin(), counts.end(),
-        [](const auto& a, const auto& b) { return a.second < b.second; });
-    auto [it, inserted] = owner.emplace(best->first, std::make_pair(best->second, point2D_idx));
-    if (!inserted && it->second.first < best->second) {
-      it->second = {best->second, point2D_idx};
+  std::map<model_t, std::vector<Correspondence2D3D>> correspondences;
+  for (const auto& [model_id, model_votes] : votes) {
+    std::map<point3D_t, std::pair<int, point2D_t>> owner;
+    for (const auto& [point2D_idx, counts] : model_votes) {
+      const auto best = std::max_element(
+          counts.begin(), counts.end(),
+          [](const auto& a, const auto& b) { return a.second < b.second; });
+      auto [it, inserted] =
+          owner.emplace(best->first, std::make_pair(best->second, point2D_idx));
+      if (!inserted && it->second.first < best->second) {
+        it->second = {best->second, point2D_idx};
+      }
     }
-  }
-  std::vector<Correspondence2D3D> correspondences;
-  correspondences.reserve(owner.size());
-  for (const auto& [point3D_id, support] : owner) {
-    correspondences.push_back({support.second, image.points2D[support.second].xy, point3D_id});
+    std::vector<Correspondence2D3D>& found = correspondences[model_id];
+    found.reserve(owner.size());
+    for (const auto& [point3D_id, support] : owner) {
+      found.push_back({support.second, image.points2D[support.second].xy, point3D_id});
+    }
   }
   return correspondences;
 }
@@ -73,7 +77,15 @@ Registrar::Result Registrar::Register(image_t image_id, StageTimes* times) {
   AbsolutePoseResult pose;
   {
     ScopedStageTimer timer(&times->registration);
-    append(Find2D3DCorrespondences(*reconstruction_, *matches_, image_id));
+    std::map<model_t, std::vector<Correspondence2D3D>> per_model =
+        Find2D3DCorrespondences(*reconstruction_, *matches_, image_id);
+    const auto most = std::max_element(
+        per_model.begin(), per_model.end(),
+        [](const auto& a, const auto& b) { return a.second.size() < b.second.size(); });
+    if (most != per_model.end()) {
+      result.model_id = most->first;
+      append(most->second);
+    }
     if (result.num_correspondences < options_.min_num_correspondences) {
       result.reason = "too few 2D-3D correspondences (" +
                       std::to_string(result.num_correspondences) + ")";
@@ -91,7 +103,7 @@ Registrar::Result Registrar::Register(image_t image_id, StageTimes* times) {
     std::vector<Correspondence2D3D> densified;
     {
       ScopedStageTimer timer(&times->lsm);
-      densified = Densify(image_id, pose.cam_from_world, correspondences);
+      densified = Densify(image_id, result.model_id, pose.cam_from_world, correspondences);
     }
     if (!densified.empty()) {
       ScopedStageTimer timer(&times->registration);
@@ -103,7 +115,7 @@ Registrar::Result Registrar::Register(image_t image_id, StageTimes* times) {
   }
 
   ScopedStageTimer timer(&times->registration);
-  reconstruction_->RegisterImage(image_id, pose.cam_from_world);
+  reconstruction_->RegisterImage(image_id, pose.cam_from_world, result.model_id);
   for (std::size_t i = 0; i < correspondences.size(); ++i) {
     if (!pose.inlier_mask[i]) continue;
     const Correspondence2D3D& correspondence = correspondences[i];
@@ -119,7 +131,7 @@ Registrar::Result Registrar::Register(image_t image_id, StageTimes* times) {
 }
 
 std::vector<Correspondence2D3D> Registrar::Densify(
-    image_t image_id, const Rigid3d& cam_from_world,
+    image_t image_id, model_t model_id, const Rigid3d& cam_from_world,
     const std::vector<Correspondence2D3D>& correspondences) {
   // The image is searched whole; a waiting image kept only as windows
   // registers without densification.
@@ -140,10 +152,12 @@ std::vector<Correspondence2D3D> Registrar::Densify(
                      return store->Window(id, level, point, level == 0 ? shifted_reach : reach);
                    }};
   };
-  // References: the registered neighbours sharing the most verified matches.
+  // References: the sub-model's registered neighbours sharing the most
+  // verified matches.
   std::vector<std::pair<std::size_t, image_t>> neighbours;
   for (const image_t other_id : matches_->Neighbours(image_id)) {
-    if (reconstruction_->image(other_id).IsRegistered() && lsm_images_->HasPixels(other_id)) {
+    const Image& other = reconstruction_->image(other_id);
+    if (other.IsRegistered() && other.model_id == model_id && lsm_images_->HasPixels(other_id)) {
       neighbours.emplace_back(matches_->NumMatches(image_id, other_id), other_id);
     }
   }

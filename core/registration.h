@@ -6,6 +6,7 @@
 // densification (visible but unmatched model points found by LSM with the
 // first pose) and the pose again from all correspondences.
 
+#include <map>
 #include <string>
 #include <vector>
 
@@ -31,10 +32,10 @@ struct Correspondence2D3D {
 // Each keypoint votes, through every registered verified neighbour, for the
 // 3D point that neighbour's matched keypoint observes; a keypoint takes its
 // best-supported point, and a point claimed by several keypoints goes to the
-// one with most votes.
-std::vector<Correspondence2D3D> Find2D3DCorrespondences(const Reconstruction& reconstruction,
-                                                        const MatchStore& matches,
-                                                        image_t image_id);
+// one with most votes. Sub-models are apart (their frames differ): the
+// correspondences come per sub-model the neighbours belong to.
+std::map<model_t, std::vector<Correspondence2D3D>> Find2D3DCorrespondences(
+    const Reconstruction& reconstruction, const MatchStore& matches, image_t image_id);
 
 class Registrar {
  public:
@@ -61,6 +62,8 @@ class Registrar {
   struct Result {
     bool success = false;
     std::string reason;  // why not, when it failed
+    // The sub-model tried: the one the most correspondences lead into.
+    model_t model_id = kInvalidModelId;
     int num_correspondences = 0;  // before RANSAC, densified included
     int num_densified = 0;
     int num_pose_inliers = 0;
@@ -70,15 +73,17 @@ class Registrar {
   Registrar(const Options& options, const MatchStore* matches, Reconstruction* reconstruction,
             LsmImageStore* lsm_images);
 
-  // On success the image is registered with its pose and observes its inlier
-  // points (densified inliers become new keypoints). Adds registration and
-  // LSM times to `times`.
+  // On success the image is registered with its pose, in the sub-model the
+  // most correspondences lead into, and observes its inlier points
+  // (densified inliers become new keypoints). Adds registration and LSM
+  // times to `times`.
   Result Register(image_t image_id, StageTimes* times);
 
  private:
-  // Densified correspondences for `image_id` seen from `cam_from_world`.
+  // Densified correspondences for `image_id` seen from `cam_from_world`, of
+  // the points of sub-model `model_id`.
   std::vector<Correspondence2D3D> Densify(
-      image_t image_id, const Rigid3d& cam_from_world,
+      image_t image_id, model_t model_id, const Rigid3d& cam_from_world,
       const std::vector<Correspondence2D3D>& correspondences);
 
   Options options_;

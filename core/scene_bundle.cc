@@ -137,7 +137,7 @@ SceneBundleResult Adjust(const std::unordered_map<image_t, double>& weights,
 
   for (std::size_t i = 0; i < image_ids.size(); ++i) {
     if (!problem.images[i].constant_pose) {
-      reconstruction->RegisterImage(image_ids[i], problem.images[i].cam_from_world);
+      reconstruction->SetPose(image_ids[i], problem.images[i].cam_from_world);
     }
   }
   for (std::size_t p = 0; p < point_ids.size(); ++p) {

@@ -25,8 +25,11 @@ class Triangulator::KeypointMatches {
   std::vector<std::vector<TrackElement>> Build(image_t image_id) const {
     std::vector<std::vector<TrackElement>> lists(
         reconstruction_.image(image_id).points2D.size());
+    const model_t model_id = reconstruction_.image(image_id).model_id;
     for (const image_t other_id : matches_.Neighbours(image_id)) {
-      if (!reconstruction_.image(other_id).IsRegistered()) continue;
+      // A sub-model's tracks stay in its frame.
+      const Image& other = reconstruction_.image(other_id);
+      if (!other.IsRegistered() || other.model_id != model_id) continue;
       for (const FeatureMatch& match : matches_.Matches(image_id, other_id)) {
         lists[match.idx1].push_back({other_id, point2D_t(match.idx2)});
       }

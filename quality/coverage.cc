@@ -199,8 +199,13 @@ void Coverage::Update(const Reconstruction& reconstruction) {
   std::map<image_t, std::size_t> view_of;
   Eigen::Vector3d image_down_sum = Eigen::Vector3d::Zero();
   Eigen::Matrix3d image_right_scatter = Eigen::Matrix3d::Zero();
+  // The largest sub-model alone: the others' frames are their own until
+  // they merge with it.
+  const auto models = reconstruction.Models();
+  const model_t model_id = models.empty() ? kInvalidModelId : models.front().first;
   for (const image_t id : reconstruction.RegisteredImageIds()) {
     const Image& image = reconstruction.image(id);
+    if (image.model_id != model_id) continue;
     const Rigid3d& cam_from_world = *image.cam_from_world;
     View view;
     view.image_id = id;

@@ -430,6 +430,22 @@ void List(const std::string& prefix, const Engine::Options::Refinement& o, Out* 
   OPTION(max_adjusted_observations, "Past this many observations BA refines only the latest images");
 }
 
+void List(const std::string& prefix, const SubModelOptions& o, Out* out) {
+  [[maybe_unused]] const auto& [enabled, min_link_points, min_inlier_ratio,
+                                max_relative_distance, min_reprojected_ratio,
+                                max_reprojection_error_px, absolute_pose] = o;
+  OPTION(enabled, "A shot that fits no model starts a sub-model with a waiting shot");
+  OPTION(min_link_points, "A link needs the shot's pose in the other sub-model from this many "
+                          "points, and this many 3D-3D correspondences agreeing");
+  OPTION(min_inlier_ratio, "... and this share of the 3D-3D correspondences agreeing");
+  OPTION(max_relative_distance,
+         "Agreement: within this share of the median depth (rotations: radians)");
+  OPTION(min_reprojected_ratio,
+         "Of the agreeing points, this share reprojecting in every image of their counterpart");
+  OPTION(max_reprojection_error_px, "... within this many pixels");
+  NESTED(absolute_pose);
+}
+
 void List(const std::string& prefix, const Engine::Options::Finishing& o, Out* out) {
   [[maybe_unused]] const auto& [num_threads, function_tolerance, max_share_of_run,
                                 min_seconds] = o;
@@ -448,7 +464,8 @@ void List(const std::string& prefix, const Engine::Options& o, Out* out) {
                                 unknown_focal_factor, self_calibration_growth,
                                 self_calibration_converged_change,
                                 self_calibration_max_observations,
-                                self_calibration_min_iterations, refinement, finishing] = o;
+                                self_calibration_min_iterations, sub_models, refinement,
+                                finishing] = o;
   NESTED(decode);
   NESTED(sift);
   NESTED(retrieval);
@@ -478,6 +495,7 @@ void List(const std::string& prefix, const Engine::Options& o, Out* out) {
   OPTION(self_calibration_max_observations,
          "Past this many observations a scheduled BA gets proportionally fewer iterations");
   OPTION(self_calibration_min_iterations, "... but at least this many");
+  NESTED(sub_models);
   NESTED(refinement);
   NESTED(finishing);
 }

@@ -23,8 +23,9 @@ struct Image {
   image_t image_id = kInvalidImageId;
   camera_t camera_id = kInvalidCameraId;
   std::string name;
-  // Set once the image is registered.
+  // Set once the image is registered, in the frame of its sub-model.
   std::optional<Rigid3d> cam_from_world;
+  model_t model_id = kInvalidModelId;
   // When the image was taken, in seconds, if its source knows (a video's
   // frame times); the motion a rolling shutter needs comes from it.
   std::optional<double> capture_time;

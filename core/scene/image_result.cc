@@ -13,6 +13,7 @@ const std::vector<StageTimes::Stage>& StageTimes::Stages() {
       {"registration", &StageTimes::registration},
       {"triangulation", &StageTimes::triangulation},
       {"ba", &StageTimes::ba},
+      {"merge", &StageTimes::merge},
       {"pending", &StageTimes::pending}};
   return stages;
 }

@@ -27,6 +27,9 @@ struct StageTimes {
   double registration = 0;
   double triangulation = 0;
   double ba = 0;
+  // Sub-models this image linked: the similarity, the merge, and the
+  // triangulation and BA around the seam.
+  double merge = 0;
   // Tries of waiting images that did not register yet (an image that does
   // register on a retry reports that try's stages in its own result).
   double pending = 0;
@@ -95,9 +98,14 @@ struct ImageResult {
   // The focal length (pixels) that the initial pairs' F put in place of a
   // guess far off, with this image (step 6, before any pose).
   std::optional<double> focal_length_from_pairs;
-  // The model after this image.
+  // The sub-model the image registered in (Reconstruction::Models), and the
+  // sub-models it linked and merged into one.
+  model_t model_id = kInvalidModelId;
+  int num_merged_models = 0;
+  // The model after this image: all its sub-models, and how many there are.
   int model_images = 0;
   int model_points = 0;
+  int num_models = 0;
   StageTimes times;
 };
 

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <unordered_set>
 
 #include "geometry/binary_io.h"
 #include "geometry/check.h"
@@ -43,9 +44,20 @@ point2D_t Reconstruction::AddPoint2D(image_t image_id, const Eigen::Vector2d& xy
   return point2D_t(image.points2D.size() - 1);
 }
 
-void Reconstruction::RegisterImage(image_t image_id, const Rigid3d& cam_from_world) {
+void Reconstruction::RegisterImage(image_t image_id, const Rigid3d& cam_from_world,
+                                   model_t model_id) {
+  FLYSFM_CHECK(model_id != kInvalidModelId);
   Image& image = images_.at(image_id);
   if (!image.IsRegistered()) registered_.push_back(image_id);
+  FLYSFM_CHECK(image.num_points3D == 0 || image.model_id == model_id);
+  image.cam_from_world = cam_from_world;
+  image.model_id = model_id;
+  changes_.changed_images.insert(image_id);
+}
+
+void Reconstruction::SetPose(image_t image_id, const Rigid3d& cam_from_world) {
+  Image& image = images_.at(image_id);
+  FLYSFM_CHECK(image.IsRegistered());
   image.cam_from_world = cam_from_world;
   changes_.changed_images.insert(image_id);
 }
@@ -56,6 +68,7 @@ void Reconstruction::DeRegisterImage(image_t image_id) {
     if (image.points2D[idx].HasPoint3D()) DeleteObservation(image_id, idx);
   }
   image.cam_from_world.reset();
+  image.model_id = kInvalidModelId;
   changes_.changed_images.insert(image_id);
   registered_.erase(std::remove(registered_.begin(), registered_.end(), image_id),
                     registered_.end());
@@ -84,9 +97,11 @@ void Reconstruction::AddObservation(point3D_t point3D_id,
   FLYSFM_CHECK(image.IsRegistered());
   Point2D& point2D = image.points2D.at(element.point2D_idx);
   FLYSFM_CHECK(!point2D.HasPoint3D());
+  Point3D& point = points3D_.at(point3D_id);
+  FLYSFM_CHECK(point.track.empty() || ModelOfPoint(point3D_id) == image.model_id);
   point2D.point3D_id = point3D_id;
   ++image.num_points3D;
-  points3D_.at(point3D_id).track.push_back(element);
+  point.track.push_back(element);
   MarkPointChanged(point3D_id);
 }
 
@@ -155,6 +170,7 @@ Reconstruction::Changes Reconstruction::TakeChanges() {
 point3D_t Reconstruction::MergePoints3D(point3D_t point3D_id1,
                                         point3D_t point3D_id2) {
   FLYSFM_CHECK(point3D_id1 != point3D_id2);
+  FLYSFM_CHECK(ModelOfPoint(point3D_id1) == ModelOfPoint(point3D_id2));
   Point3D& keep = points3D_.at(point3D_id1);
   const Point3D gone = points3D_.at(point3D_id2);
   const double n1 = keep.track.size();
@@ -169,6 +185,66 @@ point3D_t Reconstruction::MergePoints3D(point3D_t point3D_id1,
     if (!image_seen) AddObservation(point3D_id1, element);
   }
   return point3D_id1;
+}
+
+model_t Reconstruction::NewModelId() const {
+  model_t largest = kFirstModelId - 1;
+  for (const image_t image_id : registered_) {
+    largest = std::max(largest, images_.at(image_id).model_id);
+  }
+  return largest + 1;
+}
+
+model_t Reconstruction::ModelOfPoint(point3D_t point3D_id) const {
+  const Point3D& point = points3D_.at(point3D_id);
+  FLYSFM_CHECK(!point.track.empty());
+  return images_.at(point.track.front().image_id).model_id;
+}
+
+std::vector<std::pair<model_t, std::vector<image_t>>> Reconstruction::Models() const {
+  std::vector<std::pair<model_t, std::vector<image_t>>> models;
+  std::map<model_t, std::size_t> index;
+  for (const image_t image_id : registered_) {
+    const model_t model_id = images_.at(image_id).model_id;
+    const auto [it, added] = index.emplace(model_id, models.size());
+    if (added) models.push_back({model_id, {}});
+    models[it->second].second.push_back(image_id);
+  }
+  std::stable_sort(models.begin(), models.end(), [](const auto& a, const auto& b) {
+    return a.second.size() > b.second.size();
+  });
+  return models;
+}
+
+Reconstruction Reconstruction::SubModel(model_t model_id) const {
+  Reconstruction copy = *this;
+  for (const image_t image_id : registered_) {
+    if (images_.at(image_id).model_id != model_id) copy.DeRegisterImage(image_id);
+  }
+  copy.changes_ = Changes();
+  return copy;
+}
+
+void Reconstruction::MergeModels(model_t source_id, model_t target_id,
+                                 const Sim3d& target_from_source) {
+  FLYSFM_CHECK(source_id != target_id && target_id != kInvalidModelId);
+  std::unordered_set<point3D_t> points;
+  for (const image_t image_id : registered_) {
+    Image& image = images_.at(image_id);
+    if (image.model_id != source_id) continue;
+    image.cam_from_world = TransformPose(target_from_source, *image.cam_from_world);
+    image.linear_velocity *= target_from_source.scale;
+    image.model_id = target_id;
+    changes_.changed_images.insert(image_id);
+    for (const Point2D& point2D : image.points2D) {
+      if (point2D.HasPoint3D()) points.insert(point2D.point3D_id);
+    }
+  }
+  for (const point3D_t point3D_id : points) {
+    Point3D& point = points3D_.at(point3D_id);
+    point.xyz = target_from_source * point.xyz;
+    MarkPointChanged(point3D_id);
+  }
 }
 
 std::size_t Reconstruction::NumObservations() const {
@@ -324,7 +400,8 @@ namespace {
 
 constexpr char kReconstructionMagic[9] = "FSMODEL1";
 // 2: a camera's readout time, an image's capture time and motion.
-constexpr std::uint32_t kReconstructionVersion = 2;
+// 3: a registered image's sub-model.
+constexpr std::uint32_t kReconstructionVersion = 3;
 
 struct StoredPoint2D {
   double x;
@@ -355,7 +432,10 @@ void Reconstruction::Write(std::ostream& out) const {
     WriteValue(out, image.camera_id);
     WriteString(out, image.name);
     WriteValue(out, std::uint8_t(image.IsRegistered()));
-    if (image.IsRegistered()) WriteRigid3d(out, *image.cam_from_world);
+    if (image.IsRegistered()) {
+      WriteRigid3d(out, *image.cam_from_world);
+      WriteValue(out, image.model_id);
+    }
     WriteValue(out, std::uint8_t(image.capture_time.has_value()));
     if (image.capture_time) WriteValue(out, *image.capture_time);
     WriteValue(out, std::array<double, 6>{
@@ -410,6 +490,10 @@ Reconstruction Reconstruction::Read(std::istream& in) {
     image.name = ReadString(in, "image name");
     if (ReadValue<std::uint8_t>(in, "image registration")) {
       image.cam_from_world = ReadRigid3d(in, "image pose");
+      image.model_id = ReadValue<model_t>(in, "image sub-model");
+      if (image.model_id == kInvalidModelId) {
+        Corrupt("sub-model of image " + std::to_string(image_id));
+      }
     }
     if (ReadValue<std::uint8_t>(in, "image capture time flag")) {
       image.capture_time = ReadValue<double>(in, "image capture time");
@@ -452,13 +536,16 @@ Reconstruction Reconstruction::Read(std::istream& in) {
     point.error = ReadValue<double>(in, "point error");
     point.track = ReadVector<TrackElement>(in, "track", num_images);
     if (point.track.size() < 2) Corrupt("track of point " + std::to_string(point3D_id));
+    model_t model_id = kInvalidModelId;
     for (const TrackElement& element : point.track) {
       const auto image = model.images_.find(element.image_id);
       if (image == model.images_.end() || !image->second.IsRegistered() ||
           element.point2D_idx >= image->second.points2D.size() ||
-          image->second.points2D[element.point2D_idx].HasPoint3D()) {
+          image->second.points2D[element.point2D_idx].HasPoint3D() ||
+          (model_id != kInvalidModelId && image->second.model_id != model_id)) {
         Corrupt("track of point " + std::to_string(point3D_id));
       }
+      model_id = image->second.model_id;
       image->second.points2D[element.point2D_idx].point3D_id = point3D_id;
       ++image->second.num_points3D;
     }

@@ -34,7 +34,19 @@ class Reconstruction {
   // Appends a keypoint found after the image was added (LSM densification
   // finds observations where SIFT found none). Returns its index.
   point2D_t AddPoint2D(image_t image_id, const Eigen::Vector2d& xy);
-  void RegisterImage(image_t image_id, const Rigid3d& cam_from_world);
+  // Registered images fall into sub-models: blocks that no track joins, each
+  // in a similarity frame of its own until MergeModels maps one into
+  // another's (a chain of shots that broke, several photographers). A model
+  // that never broke apart is the one sub-model kFirstModelId. A track's
+  // observations all lie in one sub-model: AddObservation and MergePoints3D
+  // check it.
+  static constexpr model_t kFirstModelId = 1;
+  // An image registered already keeps its sub-model unless it observes no
+  // point.
+  void RegisterImage(image_t image_id, const Rigid3d& cam_from_world,
+                     model_t model_id = kFirstModelId);
+  // Moves a registered image (an adjustment's result), in its sub-model.
+  void SetPose(image_t image_id, const Rigid3d& cam_from_world);
   // Removes the pose and every observation the image has.
   void DeRegisterImage(image_t image_id);
 
@@ -69,6 +81,20 @@ class Reconstruction {
   std::size_t NumRegisteredImages() const { return registered_.size(); }
   std::size_t NumPoints3D() const { return points3D_.size(); }
   std::size_t NumObservations() const;
+  // A sub-model id that no registered image holds.
+  model_t NewModelId() const;
+  // The sub-model of a point: its observers'.
+  model_t ModelOfPoint(point3D_t point3D_id) const;
+  // Each sub-model's registered images in the order they registered; the
+  // largest sub-model first (ties: the one registered first).
+  std::vector<std::pair<model_t, std::vector<image_t>>> Models() const;
+  // A copy holding only this sub-model registered (the other images stay,
+  // unregistered), for writing each where a reader expects one model.
+  Reconstruction SubModel(model_t model_id) const;
+  // Maps the source sub-model's poses and points into the target's frame and
+  // makes its images the target's. The tracks of the two stay apart: points
+  // that are one are joined by MergePoints3D afterwards.
+  void MergeModels(model_t source_id, model_t target_id, const Sim3d& target_from_source);
   // The 3D points both images observe (0 when either has none).
   std::size_t NumSharedPoints3D(image_t image_id1, image_t image_id2) const;
 

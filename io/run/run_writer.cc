@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <fstream>
+#include <map>
+#include <optional>
 #include <stdexcept>
 
 #include "io/formats/atomic_file.h"
@@ -137,8 +139,11 @@ nlohmann::json ToJson(const ImageResult& result) {
               {"global", result.global_ba},
               {"global_iterations", result.global_ba_iterations}}},
       {"model_images", result.model_images},
-      {"model_points", result.model_points}};
+      {"model_points", result.model_points},
+      {"models", result.num_models}};
   if (result.image_id != kInvalidImageId) json["image_id"] = result.image_id;
+  if (result.model_id != kInvalidModelId) json["model"] = result.model_id;
+  if (result.num_merged_models > 0) json["merged_models"] = result.num_merged_models;
   if (!result.reason.empty()) json["reason"] = result.reason;
   if (result.focal_length_from_pairs) {
     json["focal_length_from_pairs"] = *result.focal_length_from_pairs;
@@ -212,15 +217,32 @@ void RunWriter::Log(const ImageResult& result, const std::string& source,
 
 void RunWriter::WriteModel(const Reconstruction& reconstruction,
                            const QualityTracker* quality, const Coverage* coverage) {
-  WriteColmapModel(reconstruction, dir_ / "sparse");
+  namespace fs = std::filesystem;
+  // The largest sub-model where a reader expects the model; each other one,
+  // in a frame of its own, a COLMAP model in sparse/1, sparse/2, ...
+  const auto models = reconstruction.Models();
+  std::optional<Reconstruction> largest;
+  if (models.size() > 1) largest = reconstruction.SubModel(models.front().first);
+  const Reconstruction& model = largest ? *largest : reconstruction;
+  WriteColmapModel(model, dir_ / "sparse");
+  for (std::size_t i = 1;; ++i) {
+    const fs::path dir = dir_ / "sparse" / std::to_string(i);
+    if (i < models.size()) {
+      WriteColmapModel(reconstruction.SubModel(models[i].first), dir);
+    } else if (fs::exists(dir)) {
+      fs::remove_all(dir);  // merged since the last write
+    } else {
+      break;
+    }
+  }
   if (coverage) WriteSurfacePly(*coverage, dir_ / "surface.ply");
   if (quality) {
     const std::unordered_map<point3D_t, PointQuality> points = quality->Points();
-    WritePly(reconstruction, dir_ / "points.ply", &points);
+    WritePly(model, dir_ / "points.ply", &points);
   } else {
-    WritePly(reconstruction, dir_ / "points.ply");
+    WritePly(model, dir_ / "points.ply");
   }
-  WriteTumTrajectory(TrajectoryOf(reconstruction), dir_ / "trajectory.txt");
+  WriteTumTrajectory(TrajectoryOf(model), dir_ / "trajectory.txt");
 }
 
 void RunWriter::WriteSummary(const Reconstruction& reconstruction,
@@ -262,6 +284,16 @@ void RunWriter::WriteSummary(const Reconstruction& reconstruction,
       {"mean_track_length", reconstruction.MeanTrackLength()},
       {"wall_seconds", wall_seconds},
       {"stage_ms", StageTimeStatistics(results)}};
+  // Each sub-model, the largest first (the one in sparse/).
+  nlohmann::json models = nlohmann::json::array();
+  std::map<model_t, std::size_t> points_in;
+  for (const auto& [id, point] : reconstruction.points3D()) {
+    ++points_in[reconstruction.ModelOfPoint(id)];
+  }
+  for (const auto& [model_id, images] : reconstruction.Models()) {
+    models.push_back({{"id", model_id}, {"images", images.size()}, {"points", points_in[model_id]}});
+  }
+  summary["models"] = models;
   if (!counts.sources.empty()) {
     nlohmann::json sources = nlohmann::json::array();
     for (const SourceCounts& source : counts.sources) {

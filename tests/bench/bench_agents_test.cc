@@ -49,11 +49,20 @@ TEST_CASE("bench_agents' ring: its counts are its shots' and the closed ring pos
   }
   const nlohmann::json bench = RunBench(testing::MakeTempDir("bench_agents"));
   const nlohmann::json& runs = bench.at("runs");
-  REQUIRE(runs.size() == 2);
-  CHECK(runs[0].at("scenario") == "ring forward");
-  CHECK(runs[1].at("scenario") == "ring reversed");
+  // Each walk on the engine with sub-models, then on one model.
+  REQUIRE(runs.size() == 4);
+  for (int i = 0; i < 4; ++i) {
+    CHECK(runs[i].at("scenario") == (i < 2 ? "ring forward" : "ring reversed"));
+    CHECK(runs[i].at("engine") == (i % 2 == 0 ? "sub-models" : "one-model"));
+  }
+  for (int i = 0; i < 4; i += 2) {
+    // A broken chain starts a sub-model instead of waiting: never fewer
+    // shots posed at arrival than with one model, and, the walk going on
+    // past the break, the sub-models merged by the end.
+    CHECK(runs[i].at("posed_at_arrival").get<int>() >= runs[i + 1].at("posed_at_arrival").get<int>());
+  }
   for (const nlohmann::json& run : runs) {
-    INFO(run.at("scenario").get<std::string>());
+    INFO(run.at("scenario").get<std::string>() + ", " + run.at("engine").get<std::string>());
     const nlohmann::json& shots = run.at("shot_outcomes");
     REQUIRE(run.at("shots") == kShots);
     REQUIRE(shots.size() == std::size_t(kShots));

@@ -32,8 +32,11 @@ TEST_CASE("2D-3D correspondences follow the neighbours' tracks, one per keypoint
   const testing::SyntheticScene scene = testing::MakeSyntheticScene({});
   SceneModel model = TwoViewModel(scene);
   const image_t id2 = SceneImageId(2);
-  const std::vector<Correspondence2D3D> correspondences =
+  const std::map<model_t, std::vector<Correspondence2D3D>> per_model =
       Find2D3DCorrespondences(model.reconstruction, model.matches, id2);
+  REQUIRE(per_model.size() == 1);
+  REQUIRE(per_model.count(Reconstruction::kFirstModelId) == 1);
+  const std::vector<Correspondence2D3D>& correspondences = per_model.begin()->second;
   REQUIRE(correspondences.size() > 300);
   std::set<point2D_t> keypoints;
   std::set<point3D_t> points;

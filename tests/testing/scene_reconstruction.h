@@ -26,4 +26,20 @@ struct SceneReconstruction {
 // seen at least twice, with its full track.
 SceneReconstruction ReconstructionFromScene(const SyntheticScene& scene);
 
+// The scene held as two sub-models, as a chain of shots that broke leaves
+// them: images 0 .. num_first - 1 at their true poses in
+// Reconstruction::kFirstModelId, the others in a second sub-model whose frame
+// is `second_from_world`; each point split into the parts of its track in
+// each (those with two observations or more).
+struct TwoSubModelScene {
+  Reconstruction reconstruction;
+  model_t second_id = kInvalidModelId;
+  Sim3d second_from_world;
+  // Per scene point, its id in each sub-model (kInvalidPoint3DId: none).
+  std::vector<point3D_t> first_ids;
+  std::vector<point3D_t> second_ids;
+};
+TwoSubModelScene TwoSubModelsFromScene(const SyntheticScene& scene, int num_first,
+                                       const Sim3d& second_from_world);
+
 }  // namespace flysfm::testing

@@ -11,6 +11,14 @@
 namespace flysfm {
 namespace {
 
+testing::SyntheticSceneOptions FixtureOptions(double noise_px = 0.0) {
+  testing::SyntheticSceneOptions options;
+  options.num_images = 6;
+  options.num_points = 200;
+  options.noise_px = noise_px;
+  return options;
+}
+
 // A reconstruction holding a synthetic scene exactly: every image registered
 // at its true pose, every point with its full track.
 struct Fixture {
@@ -18,12 +26,8 @@ struct Fixture {
   std::vector<point3D_t> point_ids;
 
   explicit Fixture(double noise_px = 0.0) {
-    testing::SyntheticSceneOptions options;
-    options.num_images = 6;
-    options.num_points = 200;
-    options.noise_px = noise_px;
     testing::SceneReconstruction held =
-        testing::ReconstructionFromScene(testing::MakeSyntheticScene(options));
+        testing::ReconstructionFromScene(testing::MakeSyntheticScene(FixtureOptions(noise_px)));
     reconstruction = std::move(held.reconstruction);
     for (const point3D_t id : held.point_ids) {
       if (id != kInvalidPoint3DId) point_ids.push_back(id);
@@ -324,6 +328,98 @@ TEST_CASE("Two takes merged are the one take of the same edits") {
   CHECK(merged.added_points.empty());
 }
 
+// The fixture's scene broken in two: images 1-3 in the first sub-model, 4-6
+// in a second.
+struct TwoSubModels {
+  Reconstruction reconstruction;
+  model_t second = kInvalidModelId;
+  Sim3d second_from_world = Sim3d(
+      2.5, Eigen::Quaterniond(Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized())),
+      Eigen::Vector3d(4, -1, 9));
+  // Per scene point seen by both, its id in the first and in the second.
+  std::vector<std::pair<point3D_t, point3D_t>> seen_by_both;
+  std::size_t num_observations = 0;
+
+  TwoSubModels() {
+    testing::TwoSubModelScene two = testing::TwoSubModelsFromScene(
+        testing::MakeSyntheticScene(FixtureOptions()), 3, second_from_world);
+    reconstruction = std::move(two.reconstruction);
+    second = two.second_id;
+    for (std::size_t p = 0; p < two.first_ids.size(); ++p) {
+      if (two.first_ids[p] != kInvalidPoint3DId && two.second_ids[p] != kInvalidPoint3DId) {
+        seen_by_both.push_back({two.first_ids[p], two.second_ids[p]});
+      }
+    }
+    num_observations = reconstruction.NumObservations();
+  }
+};
+
+TEST_CASE("Sub-models are told apart, and a merge maps one into the other's frame") {
+  TwoSubModels two;
+  Reconstruction& r = two.reconstruction;
+  CHECK(two.second == Reconstruction::kFirstModelId + 1);
+  REQUIRE(two.seen_by_both.size() > 50);
+  // Each frame is consistent on its own.
+  CHECK(r.MeanReprojectionError() < 1e-9);
+  const auto models = r.Models();
+  REQUIRE(models.size() == 2);
+  CHECK(models[0].first == Reconstruction::kFirstModelId);  // three each: the first registered
+  CHECK(models[0].second == std::vector<image_t>{1, 2, 3});
+  CHECK(models[1].second == std::vector<image_t>{4, 5, 6});
+  for (const auto& [first_id, second_id] : two.seen_by_both) {
+    CHECK(r.ModelOfPoint(first_id) == Reconstruction::kFirstModelId);
+    CHECK(r.ModelOfPoint(second_id) == two.second);
+  }
+
+  // Each apart, as a reader of one model expects it.
+  const Reconstruction second = r.SubModel(two.second);
+  CHECK(second.RegisteredImageIds() == std::vector<image_t>{4, 5, 6});
+  CHECK(second.NumObservations() + r.SubModel(Reconstruction::kFirstModelId).NumObservations() ==
+        two.num_observations);
+  CHECK(second.MeanReprojectionError() < 1e-9);
+
+  r.TakeChanges();
+  r.MergeModels(two.second, Reconstruction::kFirstModelId, Inverse(two.second_from_world));
+  const Reconstruction::Changes changes = r.TakeChanges();
+  CHECK(changes.changed_images == std::set<image_t>{4, 5, 6});
+  CHECK(r.Models().size() == 1);
+  CHECK(r.NewModelId() == Reconstruction::kFirstModelId + 1);
+  // Back at the truth: the fixture's poses, errors still nil.
+  Fixture truth;
+  for (const image_t id : {4, 5, 6}) {
+    CHECK(r.image(id).model_id == Reconstruction::kFirstModelId);
+    CHECK((ProjectionCenter(*r.image(id).cam_from_world) -
+           ProjectionCenter(*truth.reconstruction.image(id).cam_from_world))
+              .norm() < 1e-9);
+  }
+  CHECK(r.MeanReprojectionError() < 1e-9);
+  // Then the caller fuses the tracks that are one point: every observation
+  // kept, one point each.
+  const std::size_t num_points = r.NumPoints3D();
+  for (const auto& [first_id, second_id] : two.seen_by_both) {
+    CHECK((r.point3D(first_id).xyz - r.point3D(second_id).xyz).norm() < 1e-9);
+    CHECK(changes.changed_points.count(second_id) == 1);
+    CHECK(changes.changed_points.count(first_id) == 0);
+    r.MergePoints3D(first_id, second_id);
+  }
+  CHECK(r.NumPoints3D() == num_points - two.seen_by_both.size());
+  CHECK(r.NumObservations() == two.num_observations);
+  CHECK(r.MeanReprojectionError() < 1e-9);
+}
+
+TEST_CASE("An image keeps its sub-model while it observes points") {
+  TwoSubModels two;
+  Reconstruction& r = two.reconstruction;
+  // Without observations an image may move to another sub-model, and leaves
+  // its own when deregistered.
+  const image_t id = 4;
+  r.DeRegisterImage(id);
+  CHECK(r.image(id).model_id == kInvalidModelId);
+  r.RegisterImage(id, *Fixture().reconstruction.image(id).cam_from_world);
+  CHECK(r.image(id).model_id == Reconstruction::kFirstModelId);
+  CHECK(r.Models()[0].second.size() == 4);
+}
+
 }  // namespace
 }  // namespace flysfm
 
@@ -367,6 +463,7 @@ TEST_CASE("A model written and read back is the same model, a cut or inconsisten
     }
     if (image.IsRegistered()) {
       CHECK(other.cam_from_world->translation == image.cam_from_world->translation);
+      CHECK(other.model_id == image.model_id);
     }
   }
   for (const auto& [id, point] : r.points3D()) {
@@ -378,6 +475,13 @@ TEST_CASE("A model written and read back is the same model, a cut or inconsisten
   std::istringstream again(stream.str());
   Reconstruction copy = Reconstruction::Read(again);
   CHECK(copy.AddPoint3D(Eigen::Vector3d::Zero(), {}) == r.AddPoint3D(Eigen::Vector3d::Zero(), {}));
+
+  // Sub-models come back as they were.
+  TwoSubModels two;
+  std::stringstream two_stream;
+  two.reconstruction.Write(two_stream);
+  const Reconstruction two_read = Reconstruction::Read(two_stream);
+  CHECK(two_read.Models() == two.reconstruction.Models());
 
   const std::string bytes = stream.str();
   for (const double fraction : {0.0, 0.2, 0.6, 0.999}) {
