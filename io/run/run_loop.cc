@@ -1,6 +1,7 @@
 #include "io/run/run_loop.h"
 
 #include <algorithm>
+#include <cstring>
 #include <map>
 #include <memory>
 #include <set>
@@ -25,10 +26,25 @@ void PrintLine(std::FILE* out, int index, const ImageResult& result,
                std::optional<double> delay_ms) {
   char delay[48] = "";
   if (delay_ms) std::snprintf(delay, sizeof(delay), "  delay %6.0f ms", *delay_ms);
-  std::fprintf(out, "[%4d] %-32s %-10s %6d pts %+5d new %7.0f ms  model %d img / %d pts%s%s%s\n",
+  // Which sub-model, once there are several or a shot merged some.
+  char models[64] = "";
+  if (result.num_models > 1 || result.num_merged_models > 0) {
+    std::snprintf(models, sizeof(models), " in %d sub-model%s", result.num_models,
+                  result.num_models == 1 ? "" : "s");
+    if (result.model_id != kInvalidModelId) {
+      std::snprintf(models + std::strlen(models), sizeof(models) - std::strlen(models),
+                    ", this in %u", result.model_id);
+    }
+    if (result.num_merged_models > 0) {
+      std::snprintf(models + std::strlen(models), sizeof(models) - std::strlen(models),
+                    ", %d merged", result.num_merged_models);
+    }
+  }
+  std::fprintf(out,
+               "[%4d] %-32s %-10s %6d pts %+5d new %7.0f ms  model %d img / %d pts%s%s%s%s\n",
                index, result.name.c_str(), ImageStatusName(result.status),
                result.num_observations, result.num_new_points, result.times.total,
-               result.model_images, result.model_points, delay,
+               result.model_images, result.model_points, models, delay,
                result.reason.empty() ? "" : "  ", result.reason.c_str());
   std::fflush(out);
 }
