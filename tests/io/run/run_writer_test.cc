@@ -17,6 +17,7 @@
 #include "tests/testing/skip.h"
 #include "tests/testing/temp_dir.h"
 #include "tests/testing/rendered_capture.h"
+#include "tests/testing/scene_reconstruction.h"
 
 namespace flysfm {
 namespace {
@@ -252,6 +253,42 @@ TEST_CASE("The run's sparse/ model reads back, text and binary, as the engine's 
   const Camera& camera = run.model.cameras().begin()->second;
   CHECK(json["cameras"][0]["params"].get<std::vector<double>>() == camera.params);
   CHECK(json["cameras"][0]["readout_time_s"].get<double>() == camera.readout_time);
+}
+
+TEST_CASE("Each sub-model is written apart: the largest in sparse/, the others beside it") {
+  testing::SyntheticSceneOptions options;
+  options.num_images = 10;
+  options.num_points = 300;
+  const Sim3d second_from_world(2, Eigen::Quaterniond(Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitY())),
+                                Eigen::Vector3d(1, 2, 3));
+  testing::TwoSubModelScene two =
+      testing::TwoSubModelsFromScene(testing::MakeSyntheticScene(options), 4, second_from_world);
+  Reconstruction& model = two.reconstruction;
+  const fs::path dir = testing::MakeTempDir("run_writer_sub_models");
+  RunWriter writer(dir);
+  REQUIRE(writer.MayReplaceOutputs(model, /*final=*/false));
+  writer.WriteModel(model);
+  writer.WriteSummary(model, {}, RunCounts(), {}, 1.0);
+  // Six images in the second, four in the first.
+  CheckSameModel(ReadColmapText(dir / "sparse"), model.SubModel(two.second_id));
+  CheckSameModel(ReadColmapBinary(dir / "sparse" / "1"),
+                 model.SubModel(Reconstruction::kFirstModelId));
+  CHECK_FALSE(fs::exists(dir / "sparse" / "2"));
+  std::ifstream summary_file(dir / "summary.json");
+  const nlohmann::json summary = nlohmann::json::parse(summary_file);
+  REQUIRE(summary["models"].size() == 2);
+  CHECK(summary["models"][0]["id"] == two.second_id);
+  CHECK(summary["models"][0]["images"] == 6);
+  CHECK(summary["models"][1]["images"] == 4);
+  CHECK(summary["models"][0]["points"].get<std::size_t>() +
+            summary["models"][1]["points"].get<std::size_t>() ==
+        model.NumPoints3D());
+
+  // Merged, one model: sparse/1 goes.
+  model.MergeModels(Reconstruction::kFirstModelId, two.second_id, second_from_world);
+  writer.WriteModel(model);
+  CheckSameModel(ReadColmapText(dir / "sparse"), model);
+  CHECK_FALSE(fs::exists(dir / "sparse" / "1"));
 }
 
 TEST_CASE("A restart keeps the previous model until it has as many images, and the log") {
