@@ -15,6 +15,7 @@ ViewCamera MakeViewCamera(const Image& image) {
   camera.image_id = image.image_id;
   camera.camera_id = image.camera_id;
   camera.name = image.name;
+  camera.model_id = image.model_id;
   camera.rotation = image.cam_from_world->rotation;
   camera.translation = image.cam_from_world->translation;
   return camera;
@@ -182,7 +183,8 @@ void AppendCameras(const std::vector<const ViewCamera*>& cameras, std::string* o
     const ViewCamera& c = *cameras[i];
     if (i > 0) *out += ',';
     *out += "{\"id\":" + std::to_string(c.image_id) +
-            ",\"camera_id\":" + std::to_string(c.camera_id) + ",\"name\":";
+            ",\"camera_id\":" + std::to_string(c.camera_id) +
+            ",\"model\":" + std::to_string(c.model_id) + ",\"name\":";
     AppendString(c.name, out);
     *out += ',';
     AppendPose(c.rotation, c.translation, out);
@@ -222,6 +224,8 @@ void AppendLine(const ViewLine& line, std::string* out) {
   }
   *out += ",\"source\":";
   AppendString(line.source, out);
+  *out += ",\"model\":";
+  AppendString(line.model, out);
   *out += '}';
 }
 
@@ -261,6 +265,14 @@ ViewLine MakeViewLine(const ImageResult& result, std::optional<double> delay_ms,
   line.new_points = result.num_new_points;
   line.ms = result.times.total;
   line.delay_ms = delay_ms;
+  if (result.num_models > 1 && result.model_id != kInvalidModelId) {
+    line.model = "sub-model " + std::to_string(result.model_id) + " of " +
+                 std::to_string(result.num_models);
+  }
+  if (result.num_merged_models > 0) {
+    line.model += (line.model.empty() ? "" : ", ") + std::string("merged ") +
+                  std::to_string(result.num_merged_models);
+  }
   return line;
 }
 

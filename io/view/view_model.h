@@ -29,6 +29,8 @@ struct ViewCamera {
   image_t image_id = kInvalidImageId;
   camera_t camera_id = kInvalidCameraId;
   std::string name;
+  // The sub-model it is registered in: the page colours each apart.
+  model_t model_id = kInvalidModelId;
   // World to camera, as the model stores it.
   Eigen::Quaterniond rotation = Eigen::Quaterniond::Identity();
   Eigen::Vector3d translation = Eigen::Vector3d::Zero();
@@ -53,6 +55,9 @@ struct ViewLine {
   std::optional<double> delay_ms;  // from the shot's arrival (live runs)
   // The tag of the photographer's source (several sources); else empty.
   std::string source;
+  // While there are several sub-models, or when the shot merged some: which
+  // one it is in and what it merged ("sub-model 2 of 3", "merged 1").
+  std::string model;
 };
 ViewLine MakeViewLine(const ImageResult& result, std::optional<double> delay_ms,
                       const std::string& source = "");

@@ -291,15 +291,32 @@
     }
   }
 
+  // The first sub-model in the cameras' colour, each other one in its own
+  // until it merges (its cameras then come again with the survivor's id).
+  const subModelColours = [0x4da6ff, 0x44dd88, 0xffd23f, 0xff5c8a, 0xa0a0ff, 0x3fe0d0];
+  const subModelMaterials = new Map();  // sub-model id -> material
+  function materialFor(model) {
+    if (model === undefined || model <= 1) return cameraMaterial;
+    let material = subModelMaterials.get(model);
+    if (!material) {
+      material = new THREE.LineBasicMaterial(
+        { color: subModelColours[(model - 1) % subModelColours.length] });
+      subModelMaterials.set(model, material);
+    }
+    return material;
+  }
+
   function setCamera(c) {
     let object = frustums.get(c.id);
     if (!object) {
-      object = new THREE.LineSegments(geometryFor(c.camera_id), cameraMaterial);
+      object = new THREE.LineSegments(geometryFor(c.camera_id), materialFor(c.model));
       object.userData.cameraId = c.camera_id;
       object.scale.setScalar(frustumScale);
       frustums.set(c.id, object);
       root.add(object);
     }
+    object.userData.model = c.model;
+    if (object.material !== newestMaterial) object.material = materialFor(c.model);
     // cam_from_world (R, t): the camera's centre is -R^T t, its orientation R^T.
     const q = new THREE.Quaternion(c.q[0], c.q[1], c.q[2], c.q[3]).normalize();
     const inverse = q.clone().conjugate();
@@ -319,7 +336,8 @@
 
   function setNewest(id) {
     if (newestId !== null && frustums.has(newestId)) {
-      frustums.get(newestId).material = cameraMaterial;
+      const previous = frustums.get(newestId);
+      previous.material = materialFor(previous.userData.model);
     }
     newestId = frustums.has(id) ? id : null;
     if (newestId !== null) frustums.get(newestId).material = newestMaterial;
@@ -571,6 +589,7 @@
     if (line.delay_ms !== null && line.delay_ms !== undefined) {
       parts.push('delay ' + Math.round(line.delay_ms) + ' ms');
     }
+    if (line.model) parts.push(line.model);
     if (line.reason) parts.push(line.reason);
     $('line').textContent = parts.join('  ');
     $('line').className = line.status;

@@ -221,6 +221,28 @@ TEST_CASE("A line carries the tag of its image's source") {
   CHECK(u["lines"][0]["name"] == "alice/IMG_0001.JPG");
 }
 
+TEST_CASE("While there are sub-models, lines and cameras say which, and a merge is told") {
+  ImageResult result;
+  result.name = "bob/IMG_0003.JPG";
+  result.status = ImageStatus::kRegistered;
+  CHECK(MakeViewLine(result, std::nullopt).model.empty());  // one model: nothing to tell
+  result.model_id = 2;
+  result.num_models = 3;
+  CHECK(MakeViewLine(result, std::nullopt).model == "sub-model 2 of 3");
+  result.num_models = 2;
+  result.num_merged_models = 1;
+  ViewUpdate update;
+  update.lines = {MakeViewLine(result, std::nullopt)};
+  ViewCamera camera;
+  camera.image_id = 4;
+  camera.camera_id = 1;
+  camera.model_id = 2;
+  update.cameras = {camera};
+  const nlohmann::json u = nlohmann::json::parse(UpdateMessage(update, nullptr));
+  CHECK(u["lines"][0]["model"] == "sub-model 2 of 2, merged 1");
+  CHECK(u["cameras"][0]["model"] == 2);
+}
+
 TEST_CASE("Messages are one line of valid JSON whatever the names and numbers") {
   ViewModel view;
   ViewUpdate update;
