@@ -389,9 +389,11 @@ nlohmann::json RunScenario(const Flags& flags, const fs::path& work, const Scena
     // The engine call's other results are waiting shots it let register.
     const std::string model =
         out.front().model_id == kInvalidModelId ? "" : " in " + std::to_string(out.front().model_id);
-    const std::string merged = out.front().num_merged_models > 0
-                                   ? ", merged " + std::to_string(out.front().num_merged_models)
-                                   : "";
+    const std::string merged =
+        out.front().num_merged_models > 0
+            ? ", merged " + std::to_string(out.front().num_merged_models) + " (" +
+                  std::to_string(int(std::lround(out.front().times.merge))) + " ms)"
+            : "";
     std::printf("[%4d] %-22s %-10s all stages %6.0f ms, engine %6.0f ms, %2d/%2d pairs, "
                 "model %d img in %d sub-model(s)%s%s, %zu waiting registered with it\n",
                 ++index, out.front().name.c_str(), ImageStatusName(out.front().status),
@@ -546,6 +548,7 @@ int Main(const Flags& flags) {
               "wrong at arrival/at the end; centre RMSE at the end (at arrival); all stages "
               "median per shot; sub-models at the end)\n");
   const nlohmann::json json = {{"bench", "agents"},
+                               {"camera", camera_text},
                                {"width", camera.width},
                                {"height", camera.height},
                                {"megapixels", flags.megapixels},

@@ -41,13 +41,32 @@ nlohmann::json RunBench(const fs::path& dir) {
   return nlohmann::json::parse(last);
 }
 
-TEST_CASE("bench_agents' ring: its counts are its shots' and the closed ring poses every shot") {
+// One run of the benchmark for every case, in `Dir()`.
+const fs::path& Dir() {
+  static const fs::path dir = testing::MakeTempDir("bench_agents");
+  return dir;
+}
+const nlohmann::json& Bench() {
+  static const nlohmann::json bench = RunBench(Dir());
+  return bench;
+}
+
+void SkipUnderSanitizer() {
   if (testing::kSanitizerBuild) {
-    // Two runs of the engine on 25 photos take minutes there; the engine's
+    // Four runs of the engine on 25 photos take minutes there; the engine's
     // own end-to-end tests run under the sanitizers.
     testing::SkipInThisBuild("a benchmark's run, too slow under a sanitizer");
   }
-  const nlohmann::json bench = RunBench(testing::MakeTempDir("bench_agents"));
+}
+
+nlohmann::json ReadJson(const fs::path& path) {
+  std::ifstream in(path);
+  return nlohmann::json::parse(in);
+}
+
+TEST_CASE("bench_agents' ring: its counts are its shots' and the closed ring poses every shot") {
+  SkipUnderSanitizer();
+  const nlohmann::json& bench = Bench();
   const nlohmann::json& runs = bench.at("runs");
   // Each walk on the engine with sub-models, then on one model.
   REQUIRE(runs.size() == 4);
@@ -104,6 +123,41 @@ TEST_CASE("bench_agents' ring: its counts are its shots' and the closed ring pos
     CHECK(run.at("center_rmse_m").get<double>() < 0.002 * run.at("scene_size_m").get<double>());
     CHECK(run.at("models") == 1);
   }
+}
+
+TEST_CASE("A restart continues every sub-model: the ring resumed after its break merges as fed whole") {
+  SkipUnderSanitizer();
+  const nlohmann::json& bench = Bench();
+  // The forward ring's photos as a photographer's folder.
+  const fs::path shots = Dir() / "folder";
+  fs::create_directories(shots);
+  for (const fs::directory_entry& entry : fs::directory_iterator(Dir() / "photos" / "ring" / "shots")) {
+    if (entry.path().extension() == ".jpg") fs::copy_file(entry.path(), shots / entry.path().filename());
+  }
+  const fs::path out = Dir() / "out";
+  const std::string batch = std::string(FLYSFM_BINARY) + " batch " + shots.string() +
+                            " --camera \"" + bench.at("camera").get<std::string>() +
+                            "\" --out " + out.string();
+  // Stopped after 15 shots, past the break: two sub-models are checkpointed.
+  REQUIRE(std::system((batch + " --max-images 15 > " + (Dir() / "first.txt").string() +
+                       " 2>&1").c_str()) == 0);
+  const nlohmann::json first = ReadJson(out / "summary.json");
+  REQUIRE(first.at("models").size() >= 2);
+  REQUIRE(std::system((batch + " --resume > " + (Dir() / "second.txt").string() + " 2>&1")
+                          .c_str()) == 0);
+  const nlohmann::json second = ReadJson(out / "summary.json");
+  // Resumed, every shot is posed and the sub-models merged, as in the
+  // uninterrupted run (the benchmark's first).
+  const nlohmann::json& whole = bench.at("runs")[0];
+  CHECK(second.at("registered") == whole.at("posed_at_end"));
+  CHECK(second.at("models").size() == std::size_t(whole.at("models").get<int>()));
+  CHECK(second.at("resumed_images") == 15);
+  std::ifstream log(out / "log.jsonl");
+  int merges = 0;
+  for (std::string line; std::getline(log, line);) {
+    merges += nlohmann::json::parse(line).value("merged_models", 0);
+  }
+  CHECK(merges >= 1);
 }
 
 }  // namespace
