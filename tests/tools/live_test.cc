@@ -1,8 +1,9 @@
 // `flysfm live --camfi` as a process against the emulator: a clean stop on
 // SIGINT, and a SIGKILL followed by a restart on the same --out; the same
-// with watched folders, one and several.
+// with watched folders, one and several; two transmitters into one model.
 
 #include <algorithm>
+#include <map>
 #include <regex>
 #include <set>
 
@@ -152,6 +153,49 @@ TEST_CASE("live --watch: after SIGKILL a restart resumes, re-feeding in arrival 
   CHECK(std::equal(names.begin(), names.end(), arrival.end() - std::ptrdiff_t(names.size())));
   // The log goes on: the first run's records, then the second's.
   CHECK(testing::LinesStartingWith(out / "log.jsonl", "{").size() >= 3);
+}
+
+TEST_CASE("live --camfi A --camfi B: two transmitters into one model, each shot tagged and stored apart") {
+  const std::filesystem::path dir = testing::MakeTempDir("live_two_camfi");
+  const std::vector<std::filesystem::path> images = testing::WriteTestJpegs(dir / "shots", 8);
+  const std::vector<std::filesystem::path> first_half(images.begin(), images.begin() + 4);
+  const std::vector<std::filesystem::path> second_half(images.begin() + 4, images.end());
+  CamfiEmulator alice(testing::LoopbackEmulator(first_half, 0.3));
+  CamfiEmulator bob(testing::LoopbackEmulator(second_half, 0.3));
+  const std::filesystem::path out = dir / "out";
+  std::vector<std::string> args = {"live", "--out", out.string(), "--camfi-reconcile-seconds",
+                                   "0.5", "--camfi-events-port",
+                                   std::to_string(alice.event_port()), "--camfi-events-port",
+                                   std::to_string(bob.event_port())};
+  for (const CamfiEmulator* emulator : {&alice, &bob}) {
+    args.insert(args.end(), {"--camfi", "127.0.0.1:" + std::to_string(emulator->http_port())});
+  }
+  const pid_t pid = testing::SpawnFlysfm(args, dir / "live.txt");
+  // The same host twice: the second source's tag is made unique.
+  const std::vector<std::string> tags = {"camfi-127.0.0.1", "camfi-127.0.0.1-2"};
+  REQUIRE(testing::WaitUntil([&] { return LoggedNames(out).size() >= images.size(); }, 60));
+  ::kill(pid, SIGINT);
+  REQUIRE(testing::WaitForExit(pid, 20) == 0);
+
+  std::map<std::string, int> logged_by_tag;
+  for (const std::string& line : testing::LinesStartingWith(out / "log.jsonl", "{")) {
+    const nlohmann::json record = nlohmann::json::parse(line);
+    const std::string name = record["name"];
+    const std::string tag = name.substr(0, name.find('/'));
+    CHECK(record["source"] == tag);
+    ++logged_by_tag[tag];
+  }
+  CHECK(logged_by_tag == std::map<std::string, int>{{tags[0], 4}, {tags[1], 4}});
+  // Each transmitter its own store and journal.
+  for (const std::string& tag : tags) {
+    CHECK(testing::LinesStartingWith(out / "sources" / tag / "images" / "journal.tsv", "stored\t")
+              .size() == 4);
+  }
+  const nlohmann::json summary = nlohmann::json::parse(testing::ReadText(out / "summary.json"));
+  REQUIRE(summary["sources"].size() == 2);
+  CHECK(summary["sources"][0]["tag"] == tags[0]);
+  CHECK(summary["sources"][1]["tag"] == tags[1]);
+  CHECK(summary["images_in"] == 8);
 }
 
 TEST_CASE("live --watch A --watch B: each photographer's images tagged, stored apart, resumed") {
