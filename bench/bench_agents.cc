@@ -225,7 +225,26 @@ struct ShotOutcome {
   std::optional<double> error_at_arrival_m;  // after the arrival poses' Sim3
   std::optional<double> error_at_end_m;      // after the final model's Sim3
   double all_stages_ms = 0;
+  bool posed_in_others = false;  // in another sub-model than its own
+  int merged_models = 0;
+  double merge_ms = 0;
 };
+
+// For each merge, the shots from the first shot posed in two sub-models
+// since the last merge to the one that merged them, both counted (1: the
+// first merged them).
+std::vector<int> MergeDelays(const std::vector<ShotOutcome>& shots) {
+  std::vector<int> delays;
+  std::optional<std::size_t> first_link;
+  for (std::size_t i = 0; i < shots.size(); ++i) {
+    if (shots[i].posed_in_others && !first_link) first_link = i;
+    if (shots[i].merged_models > 0) {
+      delays.push_back(first_link ? int(i - *first_link) + 1 : 1);
+      first_link.reset();
+    }
+  }
+  return delays;
+}
 
 // The counts of a set of shots in arrival order (a run's or a photographer's).
 struct Counts {
@@ -389,17 +408,21 @@ nlohmann::json RunScenario(const Flags& flags, const fs::path& work, const Scena
     // The engine call's other results are waiting shots it let register.
     const std::string model =
         out.front().model_id == kInvalidModelId ? "" : " in " + std::to_string(out.front().model_id);
+    const std::string posed_in_others =
+        out.front().num_posed_in_others > 0
+            ? ", posed in " + std::to_string(out.front().num_posed_in_others) + " other"
+            : "";
     const std::string merged =
         out.front().num_merged_models > 0
             ? ", merged " + std::to_string(out.front().num_merged_models) + " (" +
                   std::to_string(int(std::lround(out.front().times.merge))) + " ms)"
             : "";
     std::printf("[%4d] %-22s %-10s all stages %6.0f ms, engine %6.0f ms, %2d/%2d pairs, "
-                "model %d img in %d sub-model(s)%s%s, %zu waiting registered with it\n",
+                "model %d img in %d sub-model(s)%s%s%s, %zu waiting registered with it\n",
                 ++index, out.front().name.c_str(), ImageStatusName(out.front().status),
                 times.total, engine_ms, out.front().num_verified_pairs,
                 out.front().num_candidates, out.back().model_images, out.back().num_models,
-                model.c_str(), merged.c_str(), out.size() - 1);
+                model.c_str(), posed_in_others.c_str(), merged.c_str(), out.size() - 1);
     std::fflush(stdout);
   };
   const bench::Session session = bench::RunSession(&engine, &source, options);
@@ -417,6 +440,10 @@ nlohmann::json RunScenario(const Flags& flags, const fs::path& work, const Scena
   }
   std::map<std::string, PosedCentre> at_arrival;
   for (const RunLoop::Reported& reported : session.run.results) {
+    ShotOutcome& outcome = shots.at(shot_index.at(reported.result.name));
+    outcome.posed_in_others |= reported.result.num_posed_in_others > 0;
+    outcome.merged_models += reported.result.num_merged_models;
+    outcome.merge_ms += reported.result.times.merge;
     if (!reported.arriving_image || reported.result.status != ImageStatus::kRegistered) continue;
     ShotOutcome& shot = shots.at(shot_index.at(reported.result.name));
     shot.posed_at_arrival = true;
@@ -476,11 +503,27 @@ nlohmann::json RunScenario(const Flags& flags, const fs::path& work, const Scena
                          {"posed_at_arrival", shot.posed_at_arrival},
                          {"posed_at_end", shot.posed_at_end},
                          {"error_at_arrival_m", shot.error_at_arrival_m.value_or(-1.0)},
-                         {"error_at_end_m", shot.error_at_end_m.value_or(-1.0)}});
+                         {"error_at_end_m", shot.error_at_end_m.value_or(-1.0)},
+                         {"posed_in_other_models", shot.posed_in_others},
+                         {"merged_models", shot.merged_models},
+                         {"merge_ms", shot.merge_ms}});
   }
+  const std::vector<int> merge_delays = MergeDelays(shots);
+  double max_merge_ms = 0;
+  for (const ShotOutcome& shot : shots) max_merge_ms = std::max(max_merge_ms, shot.merge_ms);
+  std::string delays_text;
+  for (const int delay : merge_delays) {
+    delays_text += (delays_text.empty() ? "" : ", ") + std::to_string(delay);
+  }
+  std::printf("  %s: %zu merge(s), each after this many shots posed in two sub-models: %s; the "
+              "longest merge %.0f ms\n",
+              scenario.name.c_str(), merge_delays.size(),
+              delays_text.empty() ? "-" : delays_text.c_str(), max_merge_ms);
   nlohmann::json json = CountsJson(counts);
   json.update({{"scenario", scenario.name},
                {"engine", engine_name},
+               {"merge_delays_shots", merge_delays},
+               {"max_merge_ms", max_merge_ms},
                {"photographers", scenario.photographers.size()},
                {"models", models},
                {"scene_size_m", scene_size},

@@ -404,6 +404,7 @@ void Engine::LinkSubModels(image_t image_id, ImageResult* result) {
       std::optional<SubModelView> view = PoseInSubModel(
           reconstruction_, image_id, other_id, correspondences, options_.sub_models);
       if (!view) continue;
+      ++result->num_posed_in_others;
       // The evidence of earlier shots between the two stays while their
       // shots stay where they registered.
       const std::pair<model_t, model_t> key = std::minmax(own_id, other_id);

@@ -289,6 +289,8 @@ class Engine {
     int num_pairs_linked = 0;
     int num_images_triangulated = 0;
     Triangulator::Summary triangulation;
+    // Sub-models the new pairs linked and merged (kTriangulate).
+    int num_merged_models = 0;
     bool global_ba = false;
     BundleAdjuster::Summary ba;
     OutlierSnooping snooping;

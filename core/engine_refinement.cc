@@ -158,6 +158,10 @@ void Engine::TriangulateQueued(std::deque<image_t>* images,
     if (!reconstruction_.image(image_id).IsRegistered()) continue;
     ++slice->num_images_triangulated;
     slice->triangulation.Add(triangulator_.TriangulateImage(image_id));
+    // Pairs matched now may link sub-models, as a new shot's matches do.
+    ImageResult linked;
+    LinkSubModels(image_id, &linked);
+    slice->num_merged_models += linked.num_merged_models;
   }
 }
 

@@ -101,6 +101,9 @@ struct ImageResult {
   // The sub-model the image registered in (Reconstruction::Models), and the
   // sub-models it linked and merged into one.
   model_t model_id = kInvalidModelId;
+  // Other sub-models the shot was posed in (evidence of a link), and those it
+  // linked and merged.
+  int num_posed_in_others = 0;
   int num_merged_models = 0;
   // The model after this image: all its sub-models, and how many there are.
   int model_images = 0;

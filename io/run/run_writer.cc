@@ -143,6 +143,7 @@ nlohmann::json ToJson(const ImageResult& result) {
       {"models", result.num_models}};
   if (result.image_id != kInvalidImageId) json["image_id"] = result.image_id;
   if (result.model_id != kInvalidModelId) json["model"] = result.model_id;
+  if (result.num_posed_in_others > 0) json["posed_in_other_models"] = result.num_posed_in_others;
   if (result.num_merged_models > 0) json["merged_models"] = result.num_merged_models;
   if (!result.reason.empty()) json["reason"] = result.reason;
   if (result.focal_length_from_pairs) {
