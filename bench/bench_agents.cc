@@ -230,17 +230,26 @@ struct ShotOutcome {
   double merge_ms = 0;
 };
 
-// For each merge, the shots from the first shot posed in two sub-models
-// since the last merge to the one that merged them, both counted (1: the
-// first merged them).
-std::vector<int> MergeDelays(const std::vector<ShotOutcome>& shots) {
-  std::vector<int> delays;
+// For each merge: the shots that arrived from the first one posed in two
+// sub-models since the last merge to the one that merged them, both counted
+// (1: the first merged them), and how many of those were posed in two.
+struct MergeDelay {
+  int arrivals = 0;
+  int linking_shots = 0;
+};
+std::vector<MergeDelay> MergeDelays(const std::vector<ShotOutcome>& shots) {
+  std::vector<MergeDelay> delays;
   std::optional<std::size_t> first_link;
+  int linking = 0;
   for (std::size_t i = 0; i < shots.size(); ++i) {
-    if (shots[i].posed_in_others && !first_link) first_link = i;
+    if (shots[i].posed_in_others) {
+      if (!first_link) first_link = i;
+      ++linking;
+    }
     if (shots[i].merged_models > 0) {
-      delays.push_back(first_link ? int(i - *first_link) + 1 : 1);
+      delays.push_back({first_link ? int(i - *first_link) + 1 : 1, std::max(linking, 1)});
       first_link.reset();
+      linking = 0;
     }
   }
   return delays;
@@ -508,21 +517,24 @@ nlohmann::json RunScenario(const Flags& flags, const fs::path& work, const Scena
                          {"merged_models", shot.merged_models},
                          {"merge_ms", shot.merge_ms}});
   }
-  const std::vector<int> merge_delays = MergeDelays(shots);
+  const std::vector<MergeDelay> merge_delays = MergeDelays(shots);
   double max_merge_ms = 0;
   for (const ShotOutcome& shot : shots) max_merge_ms = std::max(max_merge_ms, shot.merge_ms);
   std::string delays_text;
-  for (const int delay : merge_delays) {
-    delays_text += (delays_text.empty() ? "" : ", ") + std::to_string(delay);
+  nlohmann::json delays_json = nlohmann::json::array();
+  for (const MergeDelay& delay : merge_delays) {
+    delays_text += (delays_text.empty() ? "" : ", ") + std::to_string(delay.linking_shots) +
+                   " (" + std::to_string(delay.arrivals) + ")";
+    delays_json.push_back({{"linking_shots", delay.linking_shots}, {"arrivals", delay.arrivals}});
   }
-  std::printf("  %s: %zu merge(s), each after this many shots posed in two sub-models: %s; the "
-              "longest merge %.0f ms\n",
+  std::printf("  %s: %zu merge(s), each at this many shots posed in two sub-models (shots "
+              "arrived since the first of them): %s; the longest merge %.0f ms\n",
               scenario.name.c_str(), merge_delays.size(),
               delays_text.empty() ? "-" : delays_text.c_str(), max_merge_ms);
   nlohmann::json json = CountsJson(counts);
   json.update({{"scenario", scenario.name},
                {"engine", engine_name},
-               {"merge_delays_shots", merge_delays},
+               {"merge_delays", delays_json},
                {"max_merge_ms", max_merge_ms},
                {"photographers", scenario.photographers.size()},
                {"models", models},

@@ -81,7 +81,9 @@ TEST_CASE("bench_agents' ring: its counts are its shots' and the closed ring pos
     CHECK(runs[i].at("posed_at_arrival").get<int>() >= runs[i + 1].at("posed_at_arrival").get<int>());
     // A link needs one shot posed in both sub-models when it sees points of
     // both, two when it does not (one fixes no scale): never a third.
-    for (const nlohmann::json& delay : runs[i].at("merge_delays_shots")) CHECK(delay.get<int>() <= 2);
+    for (const nlohmann::json& delay : runs[i].at("merge_delays")) {
+      CHECK(delay.at("linking_shots").get<int>() <= 2);
+    }
   }
   for (const nlohmann::json& run : runs) {
     INFO(run.at("scenario").get<std::string>() + ", " + run.at("engine").get<std::string>());
