@@ -319,8 +319,8 @@ bool Engine::Initialize(ImageResult* result, image_t image_id) {
     if (initialized_) initializer_.ForgetRegistered(reconstruction_);
     // A guessed focal length far off distorts every pose E gives (fountain-
     // P11 from a guess 2.8 times too long: 44 mm instead of 2 mm): the one
-    // the pairs' F agree on replaces it, and the poses follow.
-    // A model exists: its images hold the focal length to their poses.
+    // the pairs' F agree on replaces it, and the poses follow. Not for a
+    // sub-model: the model's images hold the focal length to their poses.
     bool corrected = false;
     for (const auto& [camera_id, calm] : self_calibrating_) {
       if (initialized_) break;
