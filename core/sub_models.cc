@@ -6,6 +6,7 @@
 #include <set>
 
 #include "geometry/similarity.h"
+#include "geometry/statistics.h"
 
 namespace flysfm {
 
@@ -20,11 +21,6 @@ namespace {
 std::nullopt_t Refuse(std::string* why_not, std::string reason) {
   if (why_not) *why_not = std::move(reason);
   return std::nullopt;
-}
-
-double Median(std::vector<double> values) {
-  std::nth_element(values.begin(), values.begin() + values.size() / 2, values.end());
-  return values[values.size() / 2];
 }
 
 }  // namespace
