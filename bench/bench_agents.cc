@@ -1,9 +1,10 @@
 // Does every shot get a pose when it arrives? A shot that does not connect
 // to the model starts a sub-model with a waiting shot it pairs with, and the
 // sub-models merge when a later shot links them (Engine, SubModelOptions);
-// with sub-models off (--no-sub-models) it waits in the pending pool, without
-// a pose, until a later shot bridges the gap. This benchmark measures that on
-// rendered captures of bench_photos' building (exact ground truth):
+// with one model (sub-models off) it waits in the pending pool, without a
+// pose, until a later shot bridges the gap. This benchmark measures that on
+// rendered captures of bench_photos' building (exact ground truth) and on
+// real sets with their ground-truth cameras:
 //
 //   ring     one photographer walks a ring of shots around the building, one
 //            step of which is a gap (--gap-deg, 60 by default, across the
@@ -15,26 +16,37 @@
 //   two      two photographers start on opposite sides and each walks half
 //            way round: each comes near where the other started only
 //            at the end of its walk.
+//   fountain, temple   fountain-P11 (11 photos) and templeRing (19) of
+//            --data split between two photographers starting at the set's
+//            two ends and walking towards each other, interleaved.
 //
-//   bench_agents [--scenarios ring,agents,two] [--engines sub-models,one-model]
-//                [--photos N] [--gap-deg D]
+//   bench_agents [--scenarios ring,agents,two,fountain,temple]
+//                [--engines sub-models,one-model,one-photographer]
+//                [--photos N] [--walk-photos N] [--gap-deg D]
 //                [--megapixels MP] [--seed S] [--supersampling K] [--work DIR]
-//                [--glibc-malloc-defaults]
+//                [--data DIR] [--glibc-malloc-defaults]
 //
-// --photos is the ring's number of shots; the step between two shots,
-// (360 - gap) / (photos - 1) degrees, is every walk's. The engine is given
-// the true K and is fed as `flysfm batch` feeds it, unpaced (nothing refined
-// between shots, so the figures do not depend on the machine's speed).
-// For each run it prints one line per shot and then: the shots; how many
-// had a pose at their arrival (the shot's own result of its own engine
-// call); how many at the end (after Finish); the longest stretch of
-// consecutive shots without a pose at arrival; the same per photographer;
-// the camera-centre RMSE after Sim3 of the final model and of the poses as
-// they were at arrival (each sub-model aligned on its own, in the frame it had
-// then); how many poses are wrong (a centre off by more than 5 % of the
-// scene, the largest distance between two true camera centres); the
-// per-shot time of all stages; and the number of sub-models at the end.
-// Ends with one line of JSON.
+// Each scenario runs on each engine: with sub-models; with one model; and
+// (several photographers only) with sub-models on the same shots fed by one
+// photographer walking the whole path from one end, the accuracy several
+// photographers must keep. --photos is the ring's number of shots; the step
+// between two shots, (360 - gap) / (photos - 1) degrees, is every walk's
+// unless --walk-photos gives the number of each agents and two walk's shots.
+// The engine is given the true K and is fed as `flysfm batch` feeds it,
+// unpaced (nothing refined between shots, so the figures do not depend on
+// the machine's speed). For each run it prints one line per shot and then:
+// the shots; how many had a pose at their arrival (the shot's own result of
+// its own engine call), and how many of those with an initial partner (a
+// shot arrived before it within 1.5 steps along the path: one that the
+// first initialisation could pair it with); how many at the end (after
+// Finish); the longest stretch of consecutive shots without a pose at
+// arrival; the same per photographer; the camera-centre RMSE after Sim3 of
+// the final model and of the poses as they were at arrival (each sub-model
+// aligned on its own, in the frame it had then); how many poses are wrong (a
+// centre off by more than 5 % of the scene, the largest distance between two
+// true camera centres); the per-shot time of all stages; the merges, each
+// with the shots it waited for and its time; and the number of sub-models at
+// the end. Ends with one line of JSON.
 
 #include <unistd.h>
 
@@ -61,6 +73,7 @@
 #include "io/evaluation/evaluation.h"
 #include "io/sources/image_source.h"
 #include "io/sources/merged_source.h"
+#include "tests/testing/datasets.h"
 
 namespace flysfm {
 namespace {
@@ -68,17 +81,21 @@ namespace {
 namespace fs = std::filesystem;
 
 struct Flags {
-  std::vector<std::string> scenarios = {"ring", "agents", "two"};
+  std::vector<std::string> scenarios = {"ring", "agents", "two", "fountain", "temple"};
   int num_photos = 41;
+  int walk_photos = 0;
   double gap_deg = 60;
   double megapixels = 6;
   int seed = 1;
   int supersampling = 1;
   std::string work;
+  std::string data;
   bool glibc_malloc_defaults = false;
-  // Each scenario runs on each: the engine with sub-models, and with one
-  // model (SubModelOptions::enabled false), the figure it improves on.
-  std::vector<std::string> engines = {"sub-models", "one-model"};
+  // Each scenario runs on each: the engine with sub-models; with one model
+  // (SubModelOptions::enabled false), the figure it improves on; and the
+  // same shots fed by one photographer in the order of their path, the
+  // accuracy several photographers must keep.
+  std::vector<std::string> engines = {"sub-models", "one-model", "one-photographer"};
 };
 
 // The south-east corner's direction from the building's centre (16 m x
@@ -88,18 +105,29 @@ struct Flags {
 // its normal, close enough to match.
 const double kGapCentreDeg = -std::atan2(6.0, 8.0) * 180 / M_PI;
 
-// One photographer: where each shot is taken and when.
+// A shot has an initial partner at its arrival when a shot that arrived
+// before it lies within this many steps along the path: consecutive shots
+// of a walk are one step apart and overlap; a gap's two sides lie several
+// steps apart.
+constexpr double kPartnerSteps = 1.5;
+
+// One photographer of a rendered scenario: where each shot is taken and
+// when.
 struct Photographer {
   std::string tag;               // empty for a lone photographer
   std::vector<RingStop> stops;   // in the order they are shot
   std::vector<double> capture_s;
 };
 
-// A run of the engine on one scenario's photographers.
+// A run of the engine on one scenario's photographers: rendered walks
+// around bench_photos' building, or a real photo set of --data split
+// between two photographers.
 struct Scenario {
   std::string name;
   std::string folder;  // under the work folder; a photographer's photos in <folder>/<tag>
   std::vector<Photographer> photographers;
+  double step_deg = 0;    // between a walk's consecutive shots
+  std::string photo_set;  // fountain, temple: a real set instead of renders
 };
 
 double StepDeg(const Flags& flags) { return (360.0 - flags.gap_deg) / (flags.num_photos - 1); }
@@ -138,32 +166,43 @@ std::vector<Scenario> RingScenarios(const Flags& flags) {
   }
   Photographer reversed = forward;
   std::reverse(reversed.stops.begin(), reversed.stops.end());
-  return {{"ring forward", "ring", {forward}}, {"ring reversed", "ring", {reversed}}};
+  return {{"ring forward", "ring", {forward}, step, ""},
+          {"ring reversed", "ring", {reversed}, step, ""}};
+}
+
+// The step of a walk of `arc_deg` in --walk-photos shots (`shots_in_arc`
+// of them for `arc_deg`), else the ring's.
+double WalkStepDeg(const Flags& flags, double arc_deg, int shots_in_arc) {
+  return flags.walk_photos > 0 ? arc_deg / shots_in_arc : StepDeg(flags);
 }
 
 // Three photographers starting 120 deg apart (south, north-east, north-west
 // of the building), each walking about 140 deg: each reaches where the next
 // one started. Their paces differ (10, 11 and 9 s), as three people's do.
 Scenario AgentsScenario(const Flags& flags) {
-  const double step = StepDeg(flags);
+  const double step = WalkStepDeg(flags, 140.0, flags.walk_photos - 1);
   const int shots = int(std::lround(140.0 / step)) + 1;
   return {"agents",
           "agents",
           {Walk("A", -90.0, step, shots, 20.0, 1.6, 0.0, 10.0),
            Walk("B", 30.0, step, shots, 21.0, 1.7, 2.0, 11.0),
-           Walk("C", 150.0, step, shots, 19.0, 1.5, 5.0, 9.0)}};
+           Walk("C", 150.0, step, shots, 19.0, 1.5, 5.0, 9.0)},
+          step,
+          ""};
 }
 
 // Two photographers starting on opposite sides (west and east), each
 // walking half way round at the same pace: the first shots of each are next
 // to the last shots of the other, so they meet only towards the end.
 Scenario TwoScenario(const Flags& flags) {
-  const double step = StepDeg(flags);
+  const double step = WalkStepDeg(flags, 180.0, flags.walk_photos);
   const int shots = int(std::lround(180.0 / step));
   return {"two",
           "two",
           {Walk("A", 180.0, step, shots, 20.0, 1.6, 0.0, 10.0),
-           Walk("B", 0.0, step, shots, 20.0, 1.7, 5.0, 10.0)}};
+           Walk("B", 0.0, step, shots, 20.0, 1.7, 5.0, 10.0)},
+          step,
+          ""};
 }
 
 // The width of a 3:2 photo of `megapixels` (6 MP is 3000 x 2000, as
@@ -208,17 +247,128 @@ std::map<std::string, Eigen::Vector3d> RenderWalker(const Flags& flags, const fs
   return centres;
 }
 
+// A shot as a run feeds it, and where it lies along the path every shot of
+// the scenario lies on (in steps: a walk's consecutive shots are one apart).
+struct FedShot {
+  Frame frame;  // named by the photographer's file name
+  double position = 0;
+};
+struct FedPhotographer {
+  std::string tag;
+  std::vector<FedShot> shots;  // in the order shot
+};
+// What a scenario feeds the engine, and the truth it is measured against.
+struct Feed {
+  std::string camera;  // as --camera takes it
+  std::vector<FedPhotographer> photographers;
+  std::map<std::string, Eigen::Vector3d> truth;  // by run name
+  double period = 0;  // positions repeat after this many steps (a ring); 0: never
+};
+
 // The name a shot has in the run: MergedSource names a frame `<tag>/<name>`
 // when it merges more than one photographer.
-std::string RunName(const Scenario& scenario, const Photographer& walker,
-                    const std::string& file) {
-  return scenario.photographers.size() > 1 ? walker.tag + "/" + file : file;
+std::string RunName(const Feed& feed, const std::string& tag, const std::string& file) {
+  return feed.photographers.size() > 1 ? tag + "/" + file : file;
+}
+
+// Renders the scenario's photos (what is missing) and feeds them.
+Feed RenderedFeed(const Flags& flags, const fs::path& work, const Scenario& scenario,
+                  const std::string& camera_text) {
+  const int width = PhotoWidth(flags.megapixels);
+  const Camera camera = Camera::FromString(camera_text, width, width * 2 / 3);
+  Feed feed;
+  feed.camera = camera_text;
+  feed.period = 360.0 / scenario.step_deg;
+  std::vector<double> render_ms;
+  for (const Photographer& walker : scenario.photographers) {
+    feed.photographers.push_back({walker.tag, {}});
+  }
+  for (std::size_t p = 0; p < scenario.photographers.size(); ++p) {
+    const Photographer& walker = scenario.photographers[p];
+    const fs::path dir = WalkerFolder(work, scenario, walker);
+    const std::map<std::string, Eigen::Vector3d> centres =
+        RenderWalker(flags, dir, camera, walker, &render_ms);
+    for (std::size_t i = 0; i < walker.stops.size(); ++i) {
+      FedShot shot;
+      shot.frame.name = walker.stops[i].name;
+      shot.frame.path = dir / shot.frame.name;
+      shot.frame.timestamp = walker.capture_s[i];
+      shot.position = walker.stops[i].angle_deg / scenario.step_deg;
+      feed.photographers[p].shots.push_back(shot);
+      feed.truth[RunName(feed, walker.tag, shot.frame.name)] = centres.at(shot.frame.name);
+    }
+  }
+  if (!render_ms.empty()) {
+    std::printf("render: %zu photos rendered (median %.0f ms each, one core), the others "
+                "reused\n",
+                render_ms.size(), Median(render_ms));
+  }
+  return feed;
+}
+
+// A real set split between two photographers starting at its two ends and
+// walking towards each other at the same pace, interleaved: A shoots the
+// first half in the set's order, B the rest from the last image back.
+Feed PhotoSetFeed(const testing::PhotoSet& set) {
+  Feed feed;
+  feed.camera = set.camera;
+  feed.photographers = {{"A", {}}, {"B", {}}};
+  const std::size_t half = (set.frames.size() + 1) / 2;
+  for (std::size_t i = 0; i < set.frames.size(); ++i) {
+    const bool first_half = i < half;
+    FedPhotographer& walker = feed.photographers[first_half ? 0 : 1];
+    FedShot shot;
+    shot.frame = set.frames[i];
+    shot.position = double(i);
+    walker.shots.push_back(shot);
+  }
+  std::reverse(feed.photographers[1].shots.begin(), feed.photographers[1].shots.end());
+  const std::map<std::string, Eigen::Vector3d> centres = set.Centres();
+  for (FedPhotographer& walker : feed.photographers) {
+    for (std::size_t i = 0; i < walker.shots.size(); ++i) {
+      walker.shots[i].frame.timestamp = 10.0 * double(i) + (walker.tag == "B" ? 5.0 : 0.0);
+      feed.truth[RunName(feed, walker.tag, walker.shots[i].frame.name)] =
+          centres.at(walker.shots[i].frame.name);
+    }
+  }
+  return feed;
+}
+
+// The same shots fed by one photographer walking the scenario's path from
+// one end to the other (each named as in the several photographers' run).
+Feed OnePhotographerFeed(const Feed& feed) {
+  Feed one = feed;
+  one.photographers = {{"", {}}};
+  for (const FedPhotographer& walker : feed.photographers) {
+    for (FedShot shot : walker.shots) {
+      shot.frame.name = RunName(feed, walker.tag, shot.frame.name);
+      one.photographers[0].shots.push_back(shot);
+    }
+  }
+  std::vector<FedShot>& shots = one.photographers[0].shots;
+  std::stable_sort(shots.begin(), shots.end(), [](const FedShot& a, const FedShot& b) {
+    return a.position < b.position;
+  });
+  for (std::size_t i = 0; i < shots.size(); ++i) shots[i].frame.timestamp = 10.0 * double(i);
+  return one;
+}
+
+// Whether a shot at `position` has a partner among the positions of the
+// shots that arrived before it.
+bool HasPartner(double position, const std::vector<double>& earlier, double period) {
+  return std::any_of(earlier.begin(), earlier.end(), [&](double other) {
+    double distance = std::abs(position - other);
+    if (period > 0) distance = std::min(std::fmod(distance, period),
+                                        period - std::fmod(distance, period));
+    return distance <= kPartnerSteps;
+  });
 }
 
 // What a shot got.
 struct ShotOutcome {
   std::string name;
   std::string source;  // the photographer's tag
+  bool has_partner = false;  // an earlier shot within kPartnerSteps
   bool posed_at_arrival = false;
   bool posed_at_end = false;
   std::optional<Eigen::Vector3d> centre_at_arrival;
@@ -259,6 +409,8 @@ std::vector<MergeDelay> MergeDelays(const std::vector<ShotOutcome>& shots) {
 struct Counts {
   int shots = 0;
   int posed_at_arrival = 0;
+  int with_partner = 0;            // shots with an initial partner at arrival
+  int with_partner_posed = 0;      // ... posed at arrival
   int posed_at_end = 0;
   int longest_unposed = 0;  // consecutive shots without a pose at arrival
   int wrong_at_arrival = 0;
@@ -281,6 +433,8 @@ Counts Count(const std::vector<const ShotOutcome*>& shots, double wrong_m) {
   for (const ShotOutcome* shot : shots) {
     ++counts.shots;
     counts.posed_at_arrival += shot->posed_at_arrival;
+    counts.with_partner += shot->has_partner;
+    counts.with_partner_posed += shot->has_partner && shot->posed_at_arrival;
     counts.posed_at_end += shot->posed_at_end;
     unposed = shot->posed_at_arrival ? 0 : unposed + 1;
     counts.longest_unposed = std::max(counts.longest_unposed, unposed);
@@ -301,6 +455,8 @@ Counts Count(const std::vector<const ShotOutcome*>& shots, double wrong_m) {
 nlohmann::json CountsJson(const Counts& counts) {
   return {{"shots", counts.shots},
           {"posed_at_arrival", counts.posed_at_arrival},
+          {"with_partner", counts.with_partner},
+          {"with_partner_posed_at_arrival", counts.with_partner_posed},
           {"posed_at_end", counts.posed_at_end},
           {"longest_unposed_at_arrival", counts.longest_unposed},
           {"wrong_at_arrival", counts.wrong_at_arrival},
@@ -310,10 +466,12 @@ nlohmann::json CountsJson(const Counts& counts) {
 }
 
 void PrintCounts(const char* label, const Counts& counts) {
-  std::printf("  %-12s %3d shots: %3d posed at arrival, %3d at the end; longest stretch "
+  std::printf("  %-12s %3d shots: %3d posed at arrival (%d of the %d with an initial "
+              "partner), %3d at the end; longest stretch "
               "without a pose at arrival %3d; wrong at arrival %d, at the end %d; centre RMSE "
               "%.2f mm (at the end), %.2f mm (at arrival)\n",
-              label, counts.shots, counts.posed_at_arrival, counts.posed_at_end,
+              label, counts.shots, counts.posed_at_arrival, counts.with_partner_posed,
+              counts.with_partner, counts.posed_at_end,
               counts.longest_unposed, counts.wrong_at_arrival, counts.wrong_at_end,
               1000 * counts.rmse_at_end_m, 1000 * counts.rmse_at_arrival_m);
 }
@@ -361,52 +519,38 @@ double SceneSize(const std::map<std::string, Eigen::Vector3d>& truth) {
   return size;
 }
 
-nlohmann::json RunScenario(const Flags& flags, const fs::path& work, const Scenario& scenario,
-                           const std::string& engine_name, const std::string& camera_text) {
-  const int width = PhotoWidth(flags.megapixels);
-  const Camera camera = Camera::FromString(camera_text, width, width * 2 / 3);
-  // Render, and gather each photographer's frames and the truth.
-  std::map<std::string, Eigen::Vector3d> truth;  // by run name
+nlohmann::json RunScenario(const std::string& scenario_name, const Feed& feed,
+                           const std::string& engine_name) {
+  // Each photographer's frames, named as the run names them.
   std::map<std::string, std::string> source_of;
+  std::map<std::string, double> position_of;
   std::vector<std::unique_ptr<FrameListSource>> lists;
   std::vector<MergedSource::Input> inputs;
   std::vector<std::string> tags;
-  std::vector<double> render_ms;
-  for (const Photographer& walker : scenario.photographers) {
-    const fs::path dir = WalkerFolder(work, scenario, walker);
-    const std::map<std::string, Eigen::Vector3d> centres =
-        RenderWalker(flags, dir, camera, walker, &render_ms);
+  for (const FedPhotographer& walker : feed.photographers) {
     std::vector<Frame> frames;
-    for (std::size_t i = 0; i < walker.stops.size(); ++i) {
-      Frame frame;
-      frame.name = walker.stops[i].name;
-      frame.path = dir / frame.name;
-      frame.timestamp = walker.capture_s[i];
-      frames.push_back(frame);
-      const std::string name = RunName(scenario, walker, frame.name);
-      truth[name] = centres.at(frame.name);
+    for (const FedShot& shot : walker.shots) {
+      frames.push_back(shot.frame);
+      const std::string name = RunName(feed, walker.tag, shot.frame.name);
       source_of[name] = walker.tag;
+      position_of[name] = shot.position;
     }
     lists.push_back(std::make_unique<FrameListSource>(std::move(frames)));
     inputs.push_back({walker.tag.empty() ? "shots" : walker.tag, lists.back().get()});
-    if (scenario.photographers.size() > 1) tags.push_back(walker.tag);
+    if (feed.photographers.size() > 1) tags.push_back(walker.tag);
   }
-  if (!render_ms.empty()) {
-    std::printf("render: %zu photos rendered (median %.0f ms each, one core), the others "
-                "reused\n",
-                render_ms.size(), Median(render_ms));
-  }
+  const std::map<std::string, Eigen::Vector3d>& truth = feed.truth;
   MergedSourceOptions merge;
   merge.order = MergedSourceOptions::Order::kCaptureTime;
   MergedSource source(inputs, merge);
 
-  std::printf("\n%s, %s: %zu photographer%s, %zu shots\n", scenario.name.c_str(),
-              engine_name.c_str(), scenario.photographers.size(),
-              scenario.photographers.size() > 1 ? "s" : "", truth.size());
+  std::printf("\n%s, %s: %zu photographer%s, %zu shots\n", scenario_name.c_str(),
+              engine_name.c_str(), feed.photographers.size(),
+              feed.photographers.size() > 1 ? "s" : "", truth.size());
   std::fflush(stdout);
   Engine::Options engine_options;
-  engine_options.sub_models.enabled = engine_name == "sub-models";
-  Engine engine(engine_options, Camera::FromString(camera_text, 0, 0));
+  engine_options.sub_models.enabled = engine_name != "one-model";
+  Engine engine(engine_options, Camera::FromString(feed.camera, 0, 0));
   bench::SessionOptions options;
   options.run.print = false;
   options.run.between_images = RunLoop::Options::BetweenImages::kNothing;
@@ -447,6 +591,12 @@ nlohmann::json RunScenario(const Flags& flags, const fs::path& work, const Scena
     shot_index[shot.name] = shots.size();
     shots.push_back(shot);
   }
+  std::vector<double> arrived;
+  for (ShotOutcome& shot : shots) {
+    const double position = position_of.at(shot.name);
+    shot.has_partner = HasPartner(position, arrived, feed.period);
+    arrived.push_back(position);
+  }
   std::map<std::string, PosedCentre> at_arrival;
   for (const RunLoop::Reported& reported : session.run.results) {
     ShotOutcome& outcome = shots.at(shot_index.at(reported.result.name));
@@ -482,14 +632,14 @@ nlohmann::json RunScenario(const Flags& flags, const fs::path& work, const Scena
               "more than 5 %% of the scene, %.2f m of %.1f m) at arrival %d, at the end %d; "
               "centre RMSE after Sim3 %.2f mm at the end (%d compared), %.2f mm at arrival; "
               "all stages median %.0f ms per shot; sub-models at the end %d\n",
-              scenario.name.c_str(), counts.shots, counts.posed_at_arrival, counts.posed_at_end,
+              scenario_name.c_str(), counts.shots, counts.posed_at_arrival, counts.posed_at_end,
               model.NumRegisteredImages(), engine.PendingImageNames().size(),
               counts.longest_unposed, wrong_m, scene_size, counts.wrong_at_arrival,
               counts.wrong_at_end, 1000 * counts.rmse_at_end_m,
               compared_at_end, 1000 * counts.rmse_at_arrival_m,
               median_ms, models);
   nlohmann::json sources = nlohmann::json::array();
-  for (const Photographer& walker : scenario.photographers) {
+  for (const FedPhotographer& walker : feed.photographers) {
     std::vector<const ShotOutcome*> own;
     for (const ShotOutcome& shot : shots) {
       if (shot.source == walker.tag) own.push_back(&shot);
@@ -501,7 +651,7 @@ nlohmann::json RunScenario(const Flags& flags, const fs::path& work, const Scena
     json["source"] = walker.tag;
     sources.push_back(json);
   }
-  bench::PrintSessionFigures(session, ("  " + scenario.name).c_str());
+  bench::PrintSessionFigures(session, ("  " + scenario_name).c_str());
 
   // Each shot in arrival order: what a script needs to see where the
   // stretches without a pose fall.
@@ -509,6 +659,7 @@ nlohmann::json RunScenario(const Flags& flags, const fs::path& work, const Scena
   for (const ShotOutcome& shot : shots) {
     shot_list.push_back({{"name", shot.name},
                          {"source", shot.source},
+                         {"has_partner", shot.has_partner},
                          {"posed_at_arrival", shot.posed_at_arrival},
                          {"posed_at_end", shot.posed_at_end},
                          {"error_at_arrival_m", shot.error_at_arrival_m.value_or(-1.0)},
@@ -529,14 +680,14 @@ nlohmann::json RunScenario(const Flags& flags, const fs::path& work, const Scena
   }
   std::printf("  %s: %zu merge(s), each at this many shots posed in two sub-models (shots "
               "arrived since the first of them): %s; the longest merge %.0f ms\n",
-              scenario.name.c_str(), merge_delays.size(),
+              scenario_name.c_str(), merge_delays.size(),
               delays_text.empty() ? "-" : delays_text.c_str(), max_merge_ms);
   nlohmann::json json = CountsJson(counts);
-  json.update({{"scenario", scenario.name},
+  json.update({{"scenario", scenario_name},
                {"engine", engine_name},
                {"merge_delays", delays_json},
                {"max_merge_ms", max_merge_ms},
-               {"photographers", scenario.photographers.size()},
+               {"photographers", feed.photographers.size()},
                {"models", models},
                {"scene_size_m", scene_size},
                {"wrong_threshold_m", wrong_m},
@@ -577,29 +728,63 @@ int Main(const Flags& flags) {
       scenarios.push_back(AgentsScenario(flags));
     } else if (name == "two") {
       scenarios.push_back(TwoScenario(flags));
+    } else {
+      scenarios.push_back({name == "fountain" ? "fountain-P11" : "templeRing", name, {}, 0, name});
     }
   }
   nlohmann::json runs = nlohmann::json::array();
   for (const Scenario& scenario : scenarios) {
+    Feed feed;
+    if (scenario.photo_set.empty()) {
+      feed = RenderedFeed(flags, work, scenario, camera_text);
+    } else {
+      const fs::path data = flags.data;
+      try {
+        feed = PhotoSetFeed(scenario.photo_set == "fountain" ? testing::FountainP11(data)
+                                                             : testing::TempleRing19(data));
+      } catch (const std::exception& error) {
+        std::printf("\n%s: skipped, its data cannot be read: %s\n", scenario.name.c_str(),
+                    error.what());
+        continue;
+      }
+    }
+    std::map<std::string, double> rmse_of;
     for (const std::string& engine_name : flags.engines) {
-      runs.push_back(RunScenario(flags, work, scenario, engine_name, camera_text));
+      if (engine_name == "one-photographer") {
+        // A lone photographer's run is its own baseline.
+        if (feed.photographers.size() < 2) continue;
+        runs.push_back(RunScenario(scenario.name, OnePhotographerFeed(feed), engine_name));
+      } else {
+        runs.push_back(RunScenario(scenario.name, feed, engine_name));
+      }
+      rmse_of[engine_name] = runs.back()["center_rmse_m"].get<double>();
+    }
+    if (rmse_of.count("sub-models") && rmse_of.count("one-photographer")) {
+      std::printf("  %s: centre RMSE at the end %.2f mm, %.2fx the same shots' by one "
+                  "photographer (%.2f mm)\n",
+                  scenario.name.c_str(), 1000 * rmse_of["sub-models"],
+                  rmse_of["sub-models"] / rmse_of["one-photographer"],
+                  1000 * rmse_of["one-photographer"]);
     }
   }
 
-  std::printf("\n%-14s %-10s %6s %10s %8s %10s %6s %17s %10s %7s\n", "run", "engine", "shots",
-              "at arrival", "at end", "longest", "wrong", "centre RMSE (mm)", "median",
-              "models");
+  std::printf("\n%-14s %-16s %6s %10s %9s %8s %10s %6s %17s %10s %7s\n", "run", "engine",
+              "shots", "at arrival", "partnered", "at end", "longest", "wrong",
+              "centre RMSE (mm)", "median", "models");
   for (const nlohmann::json& run : runs) {
-    std::printf("%-14s %-10s %6d %10d %8d %10d %3d/%-2d %8.2f (%5.2f) %7.0f ms %7d\n",
+    std::printf("%-14s %-16s %6d %10d %4d/%-4d %8d %10d %3d/%-2d %8.2f (%5.2f) %7.0f ms %7d\n",
                 run["scenario"].get<std::string>().c_str(),
                 run["engine"].get<std::string>().c_str(), run["shots"].get<int>(),
-                run["posed_at_arrival"].get<int>(), run["posed_at_end"].get<int>(),
+                run["posed_at_arrival"].get<int>(),
+                run["with_partner_posed_at_arrival"].get<int>(), run["with_partner"].get<int>(),
+                run["posed_at_end"].get<int>(),
                 run["longest_unposed_at_arrival"].get<int>(), run["wrong_at_arrival"].get<int>(),
                 run["wrong_at_end"].get<int>(), 1000 * run["center_rmse_m"].get<double>(),
                 1000 * run["arrival_center_rmse_m"].get<double>(),
                 run["all_stages_median_ms"].get<double>(), run["models"].get<int>());
   }
-  std::printf("(posed at arrival and at the end; longest stretch without a pose at arrival; "
+  std::printf("(posed at arrival; of the shots with an initial partner at arrival, those "
+              "posed then; posed at the end; longest stretch without a pose at arrival; "
               "wrong at arrival/at the end; centre RMSE at the end (at arrival); all stages "
               "median per shot; sub-models at the end)\n");
   const nlohmann::json json = {{"bench", "agents"},
@@ -610,6 +795,7 @@ int Main(const Flags& flags) {
                                {"ring_photos", flags.num_photos},
                                {"step_deg", StepDeg(flags)},
                                {"gap_deg", flags.gap_deg},
+                               {"walk_photos", flags.walk_photos},
                                {"seed", flags.seed},
                                {"malloc_policy", malloc_policy},
                                {"runs", runs}};
@@ -625,18 +811,25 @@ int main(int argc, char** argv) {
   using namespace flysfm;
   Flags flags;
   CLI::App app("Every shot posed at its arrival? A ring with a gap, and several photographers");
-  app.add_option("--scenarios", flags.scenarios, "Any of ring, agents, two")
+  app.add_option("--scenarios", flags.scenarios,
+                 "Any of ring, agents, two (rendered), fountain, temple (--data)")
       ->delimiter(',')
-      ->check(CLI::IsMember({"ring", "agents", "two"}))
+      ->check(CLI::IsMember({"ring", "agents", "two", "fountain", "temple"}))
       ->capture_default_str();
   app.add_option("--engines", flags.engines,
-                 "Any of sub-models, one-model (sub-models off); each scenario runs on each")
+                 "Any of sub-models, one-model (sub-models off), one-photographer (sub-models, "
+                 "the same shots by one photographer along the path); each scenario runs on "
+                 "each")
       ->delimiter(',')
-      ->check(CLI::IsMember({"sub-models", "one-model"}))
+      ->check(CLI::IsMember({"sub-models", "one-model", "one-photographer"}))
       ->capture_default_str();
   app.add_option("--photos", flags.num_photos,
                  "Shots of the ring (their step is every walk's)")
       ->check(CLI::Range(6, 1000))
+      ->capture_default_str();
+  app.add_option("--walk-photos", flags.walk_photos,
+                 "Shots of each walk of agents and two (0: the ring's step)")
+      ->check(CLI::Range(0, 1000))
       ->capture_default_str();
   app.add_option("--gap-deg", flags.gap_deg, "The ring's gap between two consecutive shots")
       ->check(CLI::Range(0.0, 180.0))
@@ -649,6 +842,7 @@ int main(int argc, char** argv) {
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
   app.add_option("--work", flags.work, "Keep the rendered JPEGs here and reuse them");
+  bench::AddDataOption(&app, &flags.data);
   app.add_flag("--glibc-malloc-defaults", flags.glibc_malloc_defaults,
                "Leave the allocator as glibc sets it (core/malloc_policy.h's baseline)");
   CLI11_PARSE(app, argc, argv);

@@ -100,10 +100,12 @@ TEST_CASE("bench_agents' ring: its counts are its shots' and the closed ring pos
       CHECK(std::is_sorted(names.rbegin(), names.rend()));
     }
     // The counts are those of the shots' outcomes.
-    int at_arrival = 0, at_end = 0, unposed = 0, longest = 0;
+    int at_arrival = 0, at_end = 0, unposed = 0, longest = 0, partnered = 0, partnered_posed = 0;
     for (const nlohmann::json& shot : shots) {
       const bool posed = shot.at("posed_at_arrival");
       at_arrival += posed;
+      partnered += shot.at("has_partner").get<bool>();
+      partnered_posed += posed && shot.at("has_partner").get<bool>();
       at_end += shot.at("posed_at_end").get<bool>();
       unposed = posed ? 0 : unposed + 1;
       longest = std::max(longest, unposed);
@@ -113,6 +115,13 @@ TEST_CASE("bench_agents' ring: its counts are its shots' and the closed ring pos
     CHECK(run.at("posed_at_arrival") == at_arrival);
     CHECK(run.at("posed_at_end") == at_end);
     CHECK(run.at("longest_unposed_at_arrival") == longest);
+    CHECK(run.at("with_partner_posed_at_arrival") == partnered_posed);
+    // Every shot has an earlier neighbour on the ring within 1.5 steps but
+    // the first and the first past the gap (180 deg, 24 steps, away from
+    // every earlier shot), whichever way the ring is walked.
+    CHECK_FALSE(shots[0].at("has_partner").get<bool>());
+    CHECK(run.at("with_partner") == kShots - 2);
+    CHECK(partnered == kShots - 2);
     REQUIRE(run.at("sources").size() == 1);
     CHECK(run.at("sources")[0].at("posed_at_arrival") == at_arrival);
     // No engine poses the first photo alone.
