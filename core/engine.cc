@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <map>
+#include <set>
 #include <stdexcept>
 #include <utility>
 
@@ -288,9 +290,20 @@ void Engine::VerifyPairs(image_t image_id, const std::vector<RetrievalCandidate>
   // the wide-baseline pairs, which rank low in retrieval.
   std::vector<char> lsm_refined(features_.at(image_id).size(), 0);
   const FeatureDescriptors root_sift = RootSift(features_.at(image_id).descriptors);
+  // Past the limit, the candidates of the sub-models the shot has no
+  // verified pair in: the evidence that links two (SubModelOptions).
+  std::set<model_t> verified_in;
+  std::map<model_t, int> link_tries;
   for (const RetrievalCandidate& candidate : candidates) {
-    if (initialized_ && result->num_verified_pairs >= options_.max_verified_pairs) break;
     const image_t other_id = candidate.image_id;
+    const model_t other_model = reconstruction_.image(other_id).model_id;
+    if (initialized_ && result->num_verified_pairs >= options_.max_verified_pairs) {
+      if (!options_.sub_models.enabled || other_model == kInvalidModelId ||
+          verified_in.count(other_model) ||
+          link_tries[other_model]++ >= options_.sub_models.link_candidates) {
+        continue;
+      }
+    }
     refinement_.tried_pairs.insert(ImagePairKey(image_id, other_id));
     PairVerification pair =
         verifier_.Verify(image_id, features_.at(image_id), root_sift, other_id,
@@ -303,6 +316,7 @@ void Engine::VerifyPairs(image_t image_id, const std::vector<RetrievalCandidate>
     result->num_lsm_rejected += pair.num_lsm_rejected;
     if (!pair.verified()) continue;
     ++result->num_verified_pairs;
+    if (other_model != kInvalidModelId) verified_in.insert(other_model);
     // Once the model exists, a pair of waiting images may start a sub-model.
     if (!initialized_ ||
         (options_.sub_models.enabled && !reconstruction_.image(other_id).IsRegistered())) {

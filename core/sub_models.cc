@@ -11,7 +11,7 @@
 namespace flysfm {
 
 bool SubModelOptions::Check() const {
-  return min_link_points >= 3 && min_inlier_ratio >= 0 && min_inlier_ratio <= 1 &&
+  return min_link_points >= 3 && link_candidates >= 0 && min_inlier_ratio >= 0 && min_inlier_ratio <= 1 &&
          max_relative_distance > 0 && min_reprojected_ratio >= 0 &&
          min_reprojected_ratio <= 1 && max_reprojection_error_px > 0 && absolute_pose.Check();
 }

@@ -42,6 +42,12 @@ struct SubModelOptions {
   // where a wrong depth or scale shows.
   double min_reprojected_ratio = 0.8;
   double max_reprojection_error_px = 4.0;
+  // Past Engine::Options::max_verified_pairs, a shot is still verified
+  // against up to this many of the best-ranked retrieval candidates of each
+  // sub-model it has no verified pair in: a walk's own recent shots rank
+  // first and fill the limit, which would hide the pairs that link its
+  // sub-model to another until the walks overlap by that many shots.
+  int link_candidates = 2;
   // The linking shot's pose in the other sub-model.
   AbsolutePoseOptions absolute_pose;
 

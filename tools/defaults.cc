@@ -433,7 +433,7 @@ void List(const std::string& prefix, const Engine::Options::Refinement& o, Out* 
 void List(const std::string& prefix, const SubModelOptions& o, Out* out) {
   [[maybe_unused]] const auto& [enabled, min_link_points, min_inlier_ratio,
                                 max_relative_distance, min_reprojected_ratio,
-                                max_reprojection_error_px, absolute_pose] = o;
+                                max_reprojection_error_px, link_candidates, absolute_pose] = o;
   OPTION(enabled, "A shot that fits no model starts a sub-model with a waiting shot");
   OPTION(min_link_points, "A link needs the shot's pose in the other sub-model from this many "
                           "points, and this many 3D-3D correspondences agreeing");
@@ -443,6 +443,8 @@ void List(const std::string& prefix, const SubModelOptions& o, Out* out) {
   OPTION(min_reprojected_ratio,
          "Of the agreeing points, this share reprojecting in every image of their counterpart");
   OPTION(max_reprojection_error_px, "... within this many pixels");
+  OPTION(link_candidates, "Past max_verified_pairs, candidates still verified per sub-model "
+                          "the shot has no verified pair in");
   NESTED(absolute_pose);
 }
 
