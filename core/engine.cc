@@ -412,12 +412,24 @@ void Engine::LinkSubModels(image_t image_id, ImageResult* result) {
   for (bool merged = true; merged;) {
     merged = false;
     const model_t own_id = reconstruction_.image(image_id).model_id;
-    for (const auto& [other_id, correspondences] :
-         Find2D3DCorrespondences(reconstruction_, matches_, image_id)) {
+    const std::map<model_t, std::vector<Correspondence2D3D>> per_model =
+        Find2D3DCorrespondences(reconstruction_, matches_, image_id);
+    for (const auto& [other_id, correspondences] : per_model) {
       if (other_id == own_id) continue;
       std::optional<SubModelView> view = PoseInSubModel(
           reconstruction_, image_id, other_id, correspondences, options_.sub_models);
       if (!view) continue;
+      const auto own = per_model.find(own_id);
+      if (own != per_model.end()) {
+        view->registered_matches =
+            RegisteredMatches(reconstruction_, image_id, own->second, options_.sub_models);
+      }
+      for (const image_t neighbour : matches_.Neighbours(image_id)) {
+        const Image& image = reconstruction_.image(neighbour);
+        if (!image.IsRegistered()) continue;
+        if (image.model_id == own_id) view->registered_neighbours.push_back(neighbour);
+        if (image.model_id == other_id) view->posed_neighbours.push_back(neighbour);
+      }
       ++result->num_posed_in_others;
       // The evidence of earlier shots between the two stays while their
       // shots stay where they registered.

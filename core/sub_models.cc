@@ -11,9 +11,11 @@
 namespace flysfm {
 
 bool SubModelOptions::Check() const {
-  return min_link_points >= 3 && link_candidates >= 0 && min_inlier_ratio >= 0 && min_inlier_ratio <= 1 &&
-         max_relative_distance > 0 && min_reprojected_ratio >= 0 &&
-         min_reprojected_ratio <= 1 && max_reprojection_error_px > 0 && absolute_pose.Check();
+  return min_link_points >= 3 && link_candidates >= 0 && min_inlier_ratio >= 0 &&
+         min_inlier_ratio <= 1 && max_relative_distance > 0 && min_reprojected_ratio >= 0 &&
+         min_reprojected_ratio <= 1 && max_reprojection_error_px > 0 && min_context_ratio >= 0 &&
+         min_context_ratio <= 1 && context_max_angle_deg > 0 && context_max_angle_deg < 180 &&
+         context_max_distance_ratio >= 1 && absolute_pose.Check();
 }
 
 namespace {
@@ -57,6 +59,24 @@ std::optional<SubModelView> PoseInSubModel(
   return view;
 }
 
+std::vector<point3D_t> RegisteredMatches(const Reconstruction& reconstruction,
+                                         image_t image_id,
+                                         const std::vector<Correspondence2D3D>& correspondences,
+                                         const SubModelOptions& options) {
+  const Image& image = reconstruction.image(image_id);
+  const Camera& camera = reconstruction.camera(image.camera_id);
+  std::vector<point3D_t> matches;
+  for (const Correspondence2D3D& correspondence : correspondences) {
+    const Eigen::Vector3d in_cam =
+        *image.cam_from_world * reconstruction.point3D(correspondence.point3D_id).xyz;
+    if (in_cam.z() > 0 && (camera.ImgFromCam(in_cam) - correspondence.pixel).norm() <
+                              options.absolute_pose.max_error_px) {
+      matches.push_back(correspondence.point3D_id);
+    }
+  }
+  return matches;
+}
+
 namespace {
 
 // A view's shot in both frames.
@@ -73,6 +93,83 @@ struct OtherObservation {
   const Rigid3d* cam_from_own;
   camera_t camera_id;
 };
+
+// Of the points of one sub-model a shot should see under its pose there,
+// how many it matched.
+struct Context {
+  std::size_t expected = 0;
+  std::size_t matched = 0;
+};
+
+// The points the shot should see are those shown by its verified
+// neighbours in the sub-model taken from about where its pose there puts it
+// (their centres closer than the angle spans at the depth of what it
+// matched), which lie in its view and which such
+// an image shows from within that angle of the shot's ray and at a
+// comparable distance: the points it would have matched were the pose
+// right. Images further away (the other side of a wide gap a link bridges)
+// predict nothing: what the shot matches across a wide baseline is sparse,
+// however right the pose.
+Context ContextOf(const Reconstruction& reconstruction, image_t shot_id,
+                  const Rigid3d& cam_from_model, const std::set<point3D_t>& matched,
+                  const std::vector<image_t>& neighbours, const SubModelOptions& options) {
+  Context context;
+  if (matched.empty()) return context;
+  const Eigen::Vector3d centre = ProjectionCenter(cam_from_model);
+  std::set<image_t> observers(neighbours.begin(), neighbours.end());
+  std::vector<double> depths;
+  for (const point3D_t point3D_id : matched) {
+    const Point3D& point = reconstruction.point3D(point3D_id);
+    depths.push_back((cam_from_model * point.xyz).z());
+    for (const TrackElement& element : point.track) {
+      if (neighbours.empty() && element.image_id != shot_id) observers.insert(element.image_id);
+    }
+  }
+  const double max_angle = options.context_max_angle_deg * M_PI / 180;
+  const double max_baseline = std::tan(max_angle) * Median(depths);
+  std::vector<const Image*> references;
+  for (const image_t image_id : observers) {
+    const Image& image = reconstruction.image(image_id);
+    if (image.IsRegistered() &&
+        (ProjectionCenter(*image.cam_from_world) - centre).norm() <= max_baseline) {
+      references.push_back(&image);
+    }
+  }
+  const Camera& camera = reconstruction.camera(reconstruction.image(shot_id).camera_id);
+  const auto in_view = [&](const Eigen::Vector3d& xyz) {
+    const Eigen::Vector3d in_cam = cam_from_model * xyz;
+    if (in_cam.z() <= 0) return false;
+    const Eigen::Vector2d pixel = camera.ImgFromCam(in_cam);
+    return pixel.x() >= 0 && pixel.y() >= 0 && pixel.x() < camera.width &&
+           pixel.y() < camera.height;
+  };
+  const double min_cos = std::cos(max_angle);
+  const auto seen_alike = [&](const Eigen::Vector3d& xyz, const Eigen::Vector3d& reference) {
+    const Eigen::Vector3d from_shot = xyz - centre;
+    const Eigen::Vector3d from_reference = xyz - reference;
+    const double ratio = from_shot.norm() / from_reference.norm();
+    return ratio <= options.context_max_distance_ratio &&
+           ratio * options.context_max_distance_ratio >= 1 &&
+           from_shot.dot(from_reference) >= min_cos * from_shot.norm() * from_reference.norm();
+  };
+  std::set<point3D_t> counted;
+  for (const Image* reference : references) {
+    const Eigen::Vector3d reference_centre = ProjectionCenter(*reference->cam_from_world);
+    for (const Point2D& point2D : reference->points2D) {
+      if (!point2D.HasPoint3D() || counted.count(point2D.point3D_id)) continue;
+      const Eigen::Vector3d& xyz = reconstruction.point3D(point2D.point3D_id).xyz;
+      if (!in_view(xyz) || !seen_alike(xyz, reference_centre)) continue;
+      counted.insert(point2D.point3D_id);
+      ++context.expected;
+      context.matched += matched.count(point2D.point3D_id);
+    }
+  }
+  return context;
+}
+
+double Share(const Context& context) {
+  return context.expected == 0 ? 0 : double(context.matched) / double(context.expected);
+}
 
 }  // namespace
 
@@ -247,6 +344,51 @@ std::optional<SubModelLink> FindSubModelLink(const Reconstruction& reconstructio
       int(num_reprojected) < options.min_link_points) {
     return Refuse(why_not, count(num_reprojected) + " of " + count(other_seen.size()) +
                                " points reproject");
+  }
+  // Every test above agrees on a repeated structure: what is around it,
+  // which the shots' poses predict in both sub-models, tells.
+  Context registered, posed;
+  for (const ShotInBoth& shot : shots) {
+    const SubModelView& view = *shot.view;
+    const Image& image = reconstruction.image(view.image_id);
+    std::set<point3D_t> matched_registered, matched_posed;
+    for (const point3D_t point3D_id : view.registered_matches) {
+      if (reconstruction.ExistsPoint3D(point3D_id)) matched_registered.insert(point3D_id);
+    }
+    for (const Point2D& point2D : image.points2D) {
+      if (view.registered_matches.empty() && point2D.HasPoint3D()) {
+        matched_registered.insert(point2D.point3D_id);
+      }
+    }
+    for (const Correspondence2D3D& correspondence : view.inliers) {
+      if (reconstruction.ExistsPoint3D(correspondence.point3D_id)) {
+        matched_posed.insert(correspondence.point3D_id);
+      }
+    }
+    const Context in_registered =
+        ContextOf(reconstruction, view.image_id, *image.cam_from_world, matched_registered,
+                  view.registered_neighbours, options);
+    const Context in_posed = ContextOf(reconstruction, view.image_id, view.cam_from_posed,
+                                       matched_posed, view.posed_neighbours, options);
+    registered.expected += in_registered.expected;
+    registered.matched += in_registered.matched;
+    posed.expected += in_posed.expected;
+    posed.matched += in_posed.matched;
+  }
+  link.registered_context_share = Share(registered);
+  link.posed_context_share = Share(posed);
+  const auto percent = [](double share) { return std::to_string(int(std::lround(100 * share))); };
+  // Without images near the shot in either, nothing predicts a context.
+  const bool predicted = int(std::min(registered.expected, posed.expected)) >=
+                         options.min_link_points;
+  if (predicted && std::min(link.registered_context_share, link.posed_context_share) <
+      options.min_context_ratio *
+          std::max(link.registered_context_share, link.posed_context_share)) {
+    return Refuse(why_not, "context unmatched: the shots matched " +
+                               percent(link.posed_context_share) +
+                               " % of the points they should see where posed, " +
+                               percent(link.registered_context_share) +
+                               " % where registered");
   }
   return link;
 }

@@ -48,6 +48,22 @@ struct SubModelOptions {
   // first and fill the limit, which would hide the pairs that link its
   // sub-model to another until the walks overlap by that many shots.
   int link_candidates = 2;
+  // Context: each shot's pose in a sub-model says which of its points the
+  // shot should see: those its verified neighbours there, taken from about
+  // where the pose puts it, show in its view from within
+  // `context_max_angle_deg` of its ray and at a distance within
+  // `context_max_distance_ratio` of its own (where SIFT finds a keypoint
+  // again); and what share of those it matched. A true link sees one place
+  // under both poses: the two shares are alike. A repeated structure (the
+  // same facade twice, a symmetric object) is matched only where it
+  // repeats, and its surroundings, which the wrong pose predicts too, not:
+  // the lower share must reach `min_context_ratio` of the higher. 0.4
+  // lies between the lowest true link of bench_agents (0.51: a ring closed
+  // across its gap, its two sets of neighbours unlike) and a twin facade
+  // filling a third of the view (0.32, tests/core/twin_facades_test.cc).
+  double min_context_ratio = 0.4;
+  double context_max_angle_deg = 20.0;
+  double context_max_distance_ratio = 1.5;
   // The linking shot's pose in the other sub-model.
   AbsolutePoseOptions absolute_pose;
 
@@ -63,7 +79,25 @@ struct SubModelView {
   Rigid3d cam_from_posed;
   // The correspondences the pose keeps (RANSAC inliers).
   std::vector<Correspondence2D3D> inliers;
+  // The points of `registered_in` the shot reaches the same way (its
+  // verified neighbours' tracks) that agree with its pose there
+  // (RegisteredMatches): what the context test weighs the inliers against.
+  // Empty: the points the shot observes there.
+  std::vector<point3D_t> registered_matches;
+  // The shot's verified neighbours in each sub-model: the images whose
+  // points the context test expects it to match. Empty: the images that
+  // observe the points it matched there.
+  std::vector<image_t> registered_neighbours;
+  std::vector<image_t> posed_neighbours;
 };
+
+// Of the registered `image_id`'s `correspondences` into its own sub-model
+// (Find2D3DCorrespondences), the points reprojecting within the pose's
+// inlier threshold: counted as the inliers into the other are.
+std::vector<point3D_t> RegisteredMatches(const Reconstruction& reconstruction,
+                                         image_t image_id,
+                                         const std::vector<Correspondence2D3D>& correspondences,
+                                         const SubModelOptions& options);
 
 // The registered `image_id`'s pose in sub-model `other_id` from
 // `correspondences` (Find2D3DCorrespondences); nothing with fewer than
@@ -85,6 +119,11 @@ struct SubModelLink {
   bool from_points = false;
   int num_agreeing = 0;  // 3D-3D correspondences under own_from_other
   int num_shots = 0;
+  // The context test's shares, over the shots: of the points each shot's
+  // pose says it should see, those it matched, where it is registered and
+  // where it is posed.
+  double registered_context_share = 0;
+  double posed_context_share = 0;
 };
 
 // The evidence that `views` (of the same two sub-models, either way round)
@@ -92,7 +131,8 @@ struct SubModelLink {
 // correspondences of the points the shots see in both when there are
 // min_link_points of them, else from the shots' two poses (two shots at
 // least: one fixes no scale); each mapped point must reproject in every
-// shot. Nothing when a test of SubModelOptions fails (`why_not` then names
+// shot; and each shot must have matched the context its two poses predict
+// alike. Nothing when a test of SubModelOptions fails (`why_not` then names
 // it).
 std::optional<SubModelLink> FindSubModelLink(const Reconstruction& reconstruction,
                                              const std::vector<SubModelView>& views,

@@ -433,7 +433,9 @@ void List(const std::string& prefix, const Engine::Options::Refinement& o, Out* 
 void List(const std::string& prefix, const SubModelOptions& o, Out* out) {
   [[maybe_unused]] const auto& [enabled, min_link_points, min_inlier_ratio,
                                 max_relative_distance, min_reprojected_ratio,
-                                max_reprojection_error_px, link_candidates, absolute_pose] = o;
+                                max_reprojection_error_px, link_candidates, min_context_ratio,
+                                context_max_angle_deg, context_max_distance_ratio,
+                                absolute_pose] = o;
   OPTION(enabled, "A shot that fits no model starts a sub-model with a waiting shot");
   OPTION(min_link_points, "A link needs the shot's pose in the other sub-model from this many "
                           "points, and this many 3D-3D correspondences agreeing");
@@ -445,6 +447,12 @@ void List(const std::string& prefix, const SubModelOptions& o, Out* out) {
   OPTION(max_reprojection_error_px, "... within this many pixels");
   OPTION(link_candidates, "Past max_verified_pairs, candidates still verified per sub-model "
                           "the shot has no verified pair in");
+  OPTION(min_context_ratio,
+         "Of the points each shot's two poses say it should see, the share it matched in one "
+         "sub-model at least this share of that in the other");
+  OPTION(context_max_angle_deg,
+         "... points its matched images show from within this angle of the shot's ray (deg)");
+  OPTION(context_max_distance_ratio, "... and at a distance within this factor of the shot's");
   NESTED(absolute_pose);
 }
 

@@ -56,12 +56,13 @@ struct BrokenChain {
 };
 
 // The linking shot's pose in the second sub-model, and the link it makes.
-std::optional<SubModelLink> Link(BrokenChain& chain, std::string* why_not = nullptr) {
+std::optional<SubModelLink> Link(BrokenChain& chain, std::string* why_not = nullptr,
+                                 const SubModelOptions& options = SubModelOptions()) {
   const std::optional<SubModelView> view =
       PoseInSubModel(chain.reconstruction(), chain.linking_image, chain.two.second_id,
-                     chain.correspondences, SubModelOptions(), why_not);
+                     chain.correspondences, options, why_not);
   if (!view) return std::nullopt;
-  return FindSubModelLink(chain.reconstruction(), {*view}, SubModelOptions(), why_not);
+  return FindSubModelLink(chain.reconstruction(), {*view}, options, why_not);
 }
 
 void CheckSimilarity(const Sim3d& estimate, const Sim3d& truth, double tolerance) {
@@ -209,6 +210,51 @@ TEST_CASE("Sub-models that disagree in shape, or too little evidence, are not li
   }
 }
 
+TEST_CASE("A shot matching only a repeated structure's twin, not what is around it, links nothing") {
+  // The second sub-model holds a twin of the structure the shot sees where
+  // it is registered, the points on one side of the scene (x < -1/2 of its
+  // half-size): the shot's correspondences reach the twin's points only, as
+  // a facade's twin elsewhere gives them, and none of the twin's
+  // surroundings that the second sub-model's images show around it from
+  // where the shot stands. The twin's points agree and reproject under the
+  // similarity that maps one onto the other.
+  BrokenChain chain(6, 5);
+  std::unordered_map<point3D_t, std::size_t> scene_point;
+  for (std::size_t p = 0; p < chain.two.second_ids.size(); ++p) {
+    scene_point[chain.two.second_ids[p]] = p;
+  }
+  std::vector<Correspondence2D3D>& correspondences = chain.correspondences;
+  correspondences.erase(
+      std::remove_if(correspondences.begin(), correspondences.end(),
+                     [&](const Correspondence2D3D& c) {
+                       return chain.scene.points[scene_point.at(c.point3D_id)].x() >= -0.5;
+                     }),
+      correspondences.end());
+  REQUIRE(int(correspondences.size()) > 2 * SubModelOptions().min_link_points);
+
+  // Every geometric test passes: geometry alone would merge.
+  SubModelOptions blind;
+  blind.min_context_ratio = 0;
+  std::string why_not;
+  const std::optional<SubModelLink> geometric = Link(chain, &why_not, blind);
+  INFO(why_not);
+  REQUIRE(geometric);
+  // The shot sees its own sub-model's points wherever it looks (it observes
+  // each visible point), the twin's only in a quarter of the view.
+  CHECK(geometric->registered_context_share > 0.9);
+  CHECK(geometric->posed_context_share < 0.35);
+
+  CHECK_FALSE(Link(chain, &why_not));
+  CHECK(why_not.rfind("context unmatched", 0) == 0);
+
+  // Matched in full, the same sub-models link.
+  BrokenChain whole(6, 5);
+  const std::optional<SubModelLink> link = Link(whole, &why_not);
+  REQUIRE(link);
+  CHECK(link->posed_context_share > 0.9);
+  CHECK(link->registered_context_share > 0.9);
+}
+
 TEST_CASE("Two shots posed in both link sub-models whose points they do not share") {
   // Shot 5 (the first sub-model) sees the second's points with other
   // keypoints than its own points, and so does shot 6 the other way round:
@@ -280,6 +326,15 @@ TEST_CASE("Sub-model options are checked") {
   CHECK_FALSE(options.Check());
   options = SubModelOptions();
   options.max_relative_distance = 0;
+  CHECK_FALSE(options.Check());
+  options = SubModelOptions();
+  options.min_context_ratio = 1.1;
+  CHECK_FALSE(options.Check());
+  options = SubModelOptions();
+  options.context_max_angle_deg = 0;
+  CHECK_FALSE(options.Check());
+  options = SubModelOptions();
+  options.context_max_distance_ratio = 0.9;
   CHECK_FALSE(options.Check());
 }
 
