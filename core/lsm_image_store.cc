@@ -165,8 +165,11 @@ std::vector<image_t> LsmImageStore::WholeImages() const {
 
 std::vector<LsmImage> LsmImageStore::SearchPyramid(image_t image_id) {
   if (image_id != search_image_id_) {
-    const Entry& entry = entries_.at(image_id);
-    if (!entry.whole) return {};
+    // A waiting image that lost its pixels to the budget is searched no
+    // more than one kept as windows.
+    const auto it = entries_.find(image_id);
+    if (it == entries_.end() || !it->second.whole) return {};
+    const Entry& entry = it->second;
     // Every level from the 8-bit pyramid the templates of older images are
     // cut from, without the float pixels a search never reads.
     search_pyramid_.clear();

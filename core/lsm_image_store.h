@@ -81,6 +81,7 @@ class LsmImageStore {
   // A whole image's LSM pyramid, to search in with cubic-spline LSM
   // (LsmImage::SplineOnly, from the 8-bit levels). The last one built is
   // kept: refinement and densification search the new image in one call.
+  // Empty for an image kept as windows or whose pixels the budget dropped.
   std::vector<LsmImage> SearchPyramid(image_t image_id);
   // The window of pyramid `level` around the full-resolution `point`,
   // `reach` pixels of that level around the pixel nearest to it (cut at the

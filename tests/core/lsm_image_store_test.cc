@@ -198,6 +198,10 @@ TEST_CASE("Older images keep only their windows, within the budget, least recent
   CHECK(store.HasPixels(1));
   CHECK_FALSE(store.HasPixels(2));
   CHECK(store.Window(2, 0, points[0], options.template_reach_px).empty());
+  // An image without pixels left (a shot that waited long) has nothing to
+  // search, as one kept as windows.
+  CHECK(store.SearchPyramid(2).empty());
+  CHECK(store.SearchPyramid(3).empty());
   CHECK(store.HasPixels(3));
   CHECK(store.window_bytes() == 2 * one);
   store.KeepWindows(4, points);
